@@ -1,0 +1,14 @@
+//! Colorimetry: observers, illuminants, spectral → XYZ, colour spaces, colour differences, CCT.
+//!
+//! Conventions follow colour-science's "reference" domain-range scale: tristimulus values from
+//! spectra are on the 0–100 scale (as `colour.sd_to_XYZ`), while the colour-space conversions
+//! (`xyz_to_lab`, `xyz_to_rgb`, …) take XYZ on the 0–1 scale (as `colour.XYZ_to_Lab`).
+
+pub mod blackbody;
+pub mod cat;
+pub mod cct;
+pub mod daylight;
+pub mod delta_e;
+pub mod lab;
+pub mod rgb;
+pub mod xyy;

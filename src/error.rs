@@ -1,0 +1,155 @@
+//! The library's one error type.
+//!
+//! Every variant carries the structured facts a user needs to fix the input: the file, the line or
+//! field, and what was expected. The binary prints the chain and exits with code 2.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Errors raised by lumifit's library code.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Reading or writing a file failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file that could not be read or written.
+        path: PathBuf,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// A text input could not be parsed.
+    #[error("{file}: line {line}: {message}")]
+    Parse {
+        /// File name (or `<stdin>`, or a description of an embedded table).
+        file: String,
+        /// 1-based line number (0 when the problem concerns the whole file).
+        line: usize,
+        /// What was found and what was expected.
+        message: String,
+    },
+
+    /// A spectral distribution violates an invariant (wavelengths strictly increasing, finite values …).
+    #[error("invalid spectral data '{name}': {reason}")]
+    InvalidSpectrum {
+        /// Name of the distribution (usually the file it came from).
+        name: String,
+        /// What is wrong and what was expected.
+        reason: String,
+    },
+
+    /// Two arrays or tables that must agree in size do not.
+    #[error("shape mismatch in {what}: expected {expected}, got {got}")]
+    ShapeMismatch {
+        /// What was being combined.
+        what: String,
+        /// The expected size.
+        expected: usize,
+        /// The size found.
+        got: usize,
+    },
+
+    /// A wavelength is outside the range a table covers.
+    #[error("wavelength {lambda_nm} nm is outside the range {start_nm}–{end_nm} nm of {what}")]
+    WavelengthOutOfRange {
+        /// The offending wavelength.
+        lambda_nm: f64,
+        /// First wavelength covered.
+        start_nm: f64,
+        /// Last wavelength covered.
+        end_nm: f64,
+        /// The table that was queried.
+        what: String,
+    },
+
+    /// A name (illuminant, observer, colour space …) is not known.
+    #[error("unknown {kind} '{name}'; expected one of: {expected}")]
+    UnknownName {
+        /// The kind of thing named.
+        kind: &'static str,
+        /// The name given.
+        name: String,
+        /// The accepted names.
+        expected: String,
+    },
+
+    /// Quantities computed with different standard observers were combined.
+    #[error("observer mismatch: {what} uses '{found}' but '{expected}' was expected; convert with one observer throughout")]
+    ObserverMismatch {
+        /// What was combined.
+        what: String,
+        /// Observer of the first operand.
+        expected: String,
+        /// Observer of the second operand.
+        found: String,
+    },
+
+    /// An argument is outside its valid domain.
+    #[error("invalid {field}: {message}")]
+    InvalidArgument {
+        /// The argument or field.
+        field: String,
+        /// What was given and what was expected.
+        message: String,
+    },
+
+    /// A preset declares a schema this version does not read.
+    #[error("{file}: unsupported schema '{found}'; this lumifit reads {expected}")]
+    UnsupportedSchema {
+        /// The preset file.
+        file: String,
+        /// The schema string found.
+        found: String,
+        /// The schema strings understood.
+        expected: String,
+    },
+
+    /// A preset does not satisfy the JSON Schema.
+    #[error("{file}: does not match the preset schema:\n{details}")]
+    SchemaViolation {
+        /// The preset file.
+        file: String,
+        /// One line per violation: JSON pointer and message.
+        details: String,
+    },
+
+    /// A numerical method could not produce a result (singular matrix, no convergence where
+    /// a result is required).
+    #[error("numerical failure in {what}: {reason}")]
+    Numerical {
+        /// The computation.
+        what: String,
+        /// Why it failed.
+        reason: String,
+    },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidArgument`].
+    pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidArgument {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Shorthand for [`Error::Parse`].
+    pub fn parse(file: impl Into<String>, line: usize, message: impl Into<String>) -> Self {
+        Error::Parse {
+            file: file.into(),
+            line,
+            message: message.into(),
+        }
+    }
+
+    /// Shorthand for [`Error::Io`].
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

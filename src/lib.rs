@@ -1,0 +1,24 @@
+//! lumifit: photographs and measurements of unusual appearance turned into compact material and
+//! light presets.
+//!
+//! The crate is layered (see `docs/architecture.md`); a module imports only from layers below it:
+//!
+//! | layer | modules |
+//! |---|---|
+//! | L0 | [`error`], [`math`], [`table`], [`calib`] |
+//! | L1 | [`spectrum`], [`colorimetry`] |
+//! | L3 | [`io`], [`preset`], [`plot`] |
+//!
+//! The binary `lumifit` (L4) is a thin clap front end over these.
+
+pub mod calib;
+pub mod colorimetry;
+pub mod error;
+pub mod io;
+pub mod math;
+pub mod plot;
+pub mod preset;
+pub mod spectrum;
+pub mod table;
+
+pub use error::{Error, Result};

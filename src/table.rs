@@ -1,0 +1,168 @@
+//! A numeric CSV table: a header row, then rows of finite numbers.
+//!
+//! This is the one parser behind every tabular input of lumifit (spectra, CMFs, illuminants,
+//! camera sensitivities) and behind the reference tables embedded from `calib/`, which is why it
+//! lives at layer 0. Lines starting with `#` are comments; blank lines are skipped. Every error
+//! names the source, the 1-based line and what was expected.
+
+use crate::error::{Error, Result};
+
+/// A parsed numeric table: column names and column-major values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NumericTable {
+    /// Where the table came from (file name, `<stdin>`, `calib/...`), used in error messages.
+    pub source: String,
+    /// Column names from the header row, trimmed.
+    pub header: Vec<String>,
+    /// One vector per column, all of the same length.
+    pub columns: Vec<Vec<f64>>,
+    /// 1-based line number of each data row in the source, for error messages downstream.
+    pub lines: Vec<usize>,
+}
+
+impl NumericTable {
+    /// Number of data rows.
+    pub fn n_rows(&self) -> usize {
+        self.lines.len()
+    }
+
+    /// Index of the column named `name` (case-insensitive).
+    pub fn column_index(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h.eq_ignore_ascii_case(name))
+    }
+}
+
+/// Parses CSV text into a [`NumericTable`]. `source` names the input in errors.
+pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
+    if bytes.is_empty() || bytes.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(Error::parse(
+            source,
+            0,
+            "file is empty; expected a header row such as 'wavelength_nm,value' and data rows",
+        ));
+    }
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+        Error::parse(
+            source,
+            line,
+            "not a text file (invalid UTF-8); expected CSV text with a header row",
+        )
+    })?;
+    if text.contains('\0') {
+        let line = 1 + text[..text.find('\0').unwrap_or(0)].matches('\n').count();
+        return Err(Error::parse(
+            source,
+            line,
+            "not a text file (contains NUL bytes); expected CSV text with a header row",
+        ));
+    }
+    let mut header: Option<Vec<String>> = None;
+    let mut columns: Vec<Vec<f64>> = Vec::new();
+    let mut lines = Vec::new();
+    for (idx, raw) in text.lines().enumerate() {
+        let line_no = idx + 1;
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(|f| f.trim().trim_matches('"')).collect();
+        match &header {
+            None => {
+                if fields.iter().all(|f| f.parse::<f64>().is_ok()) {
+                    return Err(Error::parse(
+                        source,
+                        line_no,
+                        format!(
+                            "expected a header row naming the columns (e.g. 'wavelength_nm,value'), found numbers '{line}'"
+                        ),
+                    ));
+                }
+                if fields.len() < 2 || fields.iter().any(|f| f.is_empty()) {
+                    return Err(Error::parse(
+                        source,
+                        line_no,
+                        format!("expected a header row with at least two named columns, found '{line}'"),
+                    ));
+                }
+                columns = vec![Vec::new(); fields.len()];
+                header = Some(fields.iter().map(|s| s.to_string()).collect());
+            }
+            Some(h) => {
+                if fields.len() != h.len() {
+                    return Err(Error::parse(
+                        source,
+                        line_no,
+                        format!(
+                            "expected {} columns ({}), found {}",
+                            h.len(),
+                            h.join(","),
+                            fields.len()
+                        ),
+                    ));
+                }
+                for (c, f) in fields.iter().enumerate() {
+                    let v: f64 = f.parse().map_err(|_| {
+                        Error::parse(
+                            source,
+                            line_no,
+                            format!("column '{}': expected a number, found '{f}'", h[c]),
+                        )
+                    })?;
+                    if !v.is_finite() {
+                        return Err(Error::parse(
+                            source,
+                            line_no,
+                            format!("column '{}': expected a finite number, found '{f}'", h[c]),
+                        ));
+                    }
+                    columns[c].push(v);
+                }
+                lines.push(line_no);
+            }
+        }
+    }
+    let header = header.ok_or_else(|| {
+        Error::parse(source, 0, "no header row; expected 'wavelength_nm,value' and data rows")
+    })?;
+    if lines.is_empty() {
+        return Err(Error::parse(
+            source,
+            0,
+            "header but no data rows; expected at least one row of numbers",
+        ));
+    }
+    Ok(NumericTable {
+        source: source.to_string(),
+        header,
+        columns,
+        lines,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_a_table_with_comments_and_blank_lines() {
+        let t = parse_numeric_csv(b"# c\nwavelength_nm,value\n\n400,1.5\n410,2\n", "t.csv").unwrap();
+        assert_eq!(t.header, vec!["wavelength_nm", "value"]);
+        assert_eq!(t.columns[1], vec![1.5, 2.0]);
+        assert_eq!(t.lines, vec![4, 5]);
+    }
+
+    #[test]
+    fn a_missing_column_names_the_line() {
+        let e = parse_numeric_csv(b"wavelength_nm,value\n400,1\n410\n", "t.csv").unwrap_err();
+        assert!(e.to_string().contains("t.csv: line 3"), "{e}");
+    }
+
+    #[test]
+    fn nan_and_binary_are_rejected() {
+        let e = parse_numeric_csv(b"wavelength_nm,value\n400,nan\n", "t.csv").unwrap_err();
+        assert!(e.to_string().contains("line 2") && e.to_string().contains("finite"));
+        let e = parse_numeric_csv(&[0x89, 0x50, 0x4e, 0x47, 0xff, 0x00], "b.png").unwrap_err();
+        assert!(e.to_string().contains("not a text file"));
+    }
+}
