@@ -9,6 +9,13 @@ pub mod cat;
 pub mod cct;
 pub mod daylight;
 pub mod delta_e;
+pub mod illuminant;
 pub mod lab;
+pub mod observer;
 pub mod rgb;
+pub mod tristimulus;
 pub mod xyy;
+
+pub use illuminant::Illuminant;
+pub use observer::{Observer, StandardObserver};
+pub use tristimulus::{illuminant_white, sd_to_xyz, Tristimulus, XyzMethod, XyzOperator};

@@ -400,6 +400,11 @@ impl MultiSpectrum {
         grid_shape(&self.wavelengths_nm)
     }
 
+    /// True when the samples are equally spaced.
+    pub fn is_uniform(&self) -> bool {
+        interpolation::is_uniform(&self.wavelengths_nm)
+    }
+
     /// Channel `c` as a [`Spectrum`].
     pub fn to_spectrum(&self, c: usize) -> Spectrum {
         Spectrum {
