@@ -144,12 +144,13 @@ pub fn d_series_basis() -> &'static NumericTable {
     CELL.get_or_init(|| parse_embedded(include_str!("../calib/d_series_basis.csv"), "calib/d_series_basis.csv"))
 }
 
+/// The CSV text of `calib/colorchecker_n_ohta.csv` (for provenance hashes).
+pub const COLORCHECKER_N_OHTA_CSV: &str = include_str!("../calib/colorchecker_n_ohta.csv");
+
 /// The 24 ColorChecker reflectances of colour's "ColorChecker N Ohta" (380–780 nm, 5 nm).
 pub fn colorchecker_n_ohta() -> &'static NumericTable {
     static CELL: OnceLock<NumericTable> = OnceLock::new();
-    CELL.get_or_init(|| {
-        parse_embedded(include_str!("../calib/colorchecker_n_ohta.csv"), "calib/colorchecker_n_ohta.csv")
-    })
+    CELL.get_or_init(|| parse_embedded(COLORCHECKER_N_OHTA_CSV, "calib/colorchecker_n_ohta.csv"))
 }
 
 /// One RGB colour space as exported from colour.

@@ -62,6 +62,9 @@ impl XyzMethod {
     }
 }
 
+/// colour's default chromaticity for black (XYZ = 0) in xy conversions: CIE 1931 D65.
+pub const D65_XY: [f64; 2] = [0.3127, 0.3290];
+
 /// XYZ tristimulus values together with the observer that produced them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tristimulus {
@@ -93,8 +96,8 @@ impl Tristimulus {
             return Err(Error::invalid("white point", format!("Y must be positive, got {yw}")));
         }
         let xyz = self.xyz.map(|v| v / yw);
-        let xy = super::xyy::xyz_to_xy(white.xyz);
-        Ok(super::lab::xyz_to_lab(xyz, xy))
+        let xy = super::xyy::xyz_to_xy(white.xyz, D65_XY);
+        super::lab::xyz_to_lab(xyz, xy)
     }
 }
 

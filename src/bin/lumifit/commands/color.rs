@@ -7,6 +7,7 @@ use lumifit::colorimetry::delta_e::{delta_e as delta_e_fn, DeltaEMethod};
 use lumifit::colorimetry::lab::{lab_to_lch, lab_to_xyz, lch_to_lab, xyz_to_lab};
 use lumifit::colorimetry::rgb::{rgb_to_xyz, xyz_to_rgb, RgbSpace};
 use lumifit::colorimetry::xyy::{xyy_to_xyz, xyz_to_xy, xyz_to_xyy};
+use lumifit::colorimetry::tristimulus::D65_XY;
 use lumifit::colorimetry::{illuminant_white, sd_to_xyz, Observer, StandardObserver, XyzMethod, XyzOperator};
 use lumifit::io::spectrum_csv;
 use serde::Serialize;
@@ -41,7 +42,7 @@ pub fn xyz(a: &XyzArgs) -> Result<()> {
     let t = sd_to_xyz(&sd, observer, &illuminant, method, a.k)
         .with_context(|| format!("computing XYZ of {}", a.sd.display()))?;
     let white = illuminant_white(observer, &illuminant, method)?;
-    let white_xy = xyz_to_xy(white.xyz);
+    let white_xy = xyz_to_xy(white.xyz, D65_XY);
     let xyy = xyz_to_xyy(t.xyz, white_xy);
     // Lab and sRGB of the colour relative to the illuminant's white (Y_w = 100 without k).
     let lab = t.lab_relative_to(&white)?;
@@ -70,7 +71,7 @@ pub fn table(a: &TableArgs) -> Result<()> {
     let observer = Observer::standard(StandardObserver::from_name(&a.observer)?)?;
     let method = XyzMethod::from_name(&a.method)?;
     let white = illuminant_white(observer, &illuminant, method)?;
-    let white_xy = xyz_to_xy(white.xyz);
+    let white_xy = xyz_to_xy(white.xyz, D65_XY);
     let started = std::time::Instant::now();
     // One linear operator for the shared grid, then 3·n multiply-adds per spectrum.
     let op = XyzOperator::new(ms.wavelengths(), observer, &illuminant, method, None)
@@ -78,8 +79,8 @@ pub fn table(a: &TableArgs) -> Result<()> {
     let mut rows = Vec::with_capacity(ms.n_channels());
     for c in 0..ms.n_channels() {
         let xyz = op.apply(ms.channel(c))?;
-        let xy = xyz_to_xy(xyz);
-        let lab = xyz_to_lab(xyz.map(|v| v / white.xyz[1]), white_xy);
+        let xy = xyz_to_xy(xyz, D65_XY);
+        let lab = xyz_to_lab(xyz.map(|v| v / white.xyz[1]), white_xy)?;
         rows.push((xyz, xy, lab));
     }
     let seconds = started.elapsed().as_secs_f64();
@@ -148,8 +149,8 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
     let xyz = match a.from.as_str() {
         "xyz" => v,
         "xyy" => xyy_to_xyz(v),
-        "lab" => lab_to_xyz(v, w),
-        "lch" => lab_to_xyz(lch_to_lab(v), w),
+        "lab" => lab_to_xyz(v, w)?,
+        "lch" => lab_to_xyz(lch_to_lab(v), w)?,
         "srgb" => rgb_to_xyz(v, w, &srgb, Some(Cat::Cat02), true)?,
         "linear-srgb" => rgb_to_xyz(v, w, &srgb, Some(Cat::Cat02), false)?,
         other => anyhow::bail!("--from: unknown representation '{other}'"),
@@ -157,8 +158,8 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
     let out = match a.to.as_str() {
         "xyz" => xyz,
         "xyy" => xyz_to_xyy(xyz, w),
-        "lab" => xyz_to_lab(xyz, w),
-        "lch" => lab_to_lch(xyz_to_lab(xyz, w)),
+        "lab" => xyz_to_lab(xyz, w)?,
+        "lch" => lab_to_lch(xyz_to_lab(xyz, w)?),
         "srgb" => xyz_to_rgb(xyz, w, &srgb, Some(Cat::Cat02), true)?,
         "linear-srgb" => xyz_to_rgb(xyz, w, &srgb, Some(Cat::Cat02), false)?,
         other => anyhow::bail!("--to: unknown representation '{other}'"),

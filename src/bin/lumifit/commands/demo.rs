@@ -1,0 +1,180 @@
+//! `lumifit demo`: the main job on the bundled defaults.
+//!
+//! Stage 1 (foundation): colorimetry of the 24 ColorChecker patches (colour's N Ohta reflectances,
+//! embedded from `calib/`) under D65 and A — a CSV table, a PNG chart of the spectra and rendered
+//! swatches, and one material preset per patch, each read back to prove the round trip. Later
+//! pipelines add their stages here.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use lumifit::calib;
+use lumifit::colorimetry::cat::Cat;
+use lumifit::colorimetry::delta_e::{delta_e, DeltaEMethod};
+use lumifit::colorimetry::rgb::{xyz_to_rgb, RgbSpace};
+use lumifit::colorimetry::xyy::xyz_to_xy;
+use lumifit::colorimetry::tristimulus::D65_XY;
+use lumifit::colorimetry::{illuminant_white, sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod};
+use lumifit::plot::{colorchecker_chart, SwatchPatch};
+use lumifit::preset::{read_material, write_preset, MaterialPreset, Provenance, ReflectanceSection};
+use lumifit::spectrum::Spectrum;
+
+use crate::args::DemoArgs;
+
+const ILLUMINANTS: [&str; 2] = ["D65", "A"];
+
+struct PatchRow {
+    index: usize,
+    name: String,
+    illuminant: &'static str,
+    xyz: [f64; 3],
+    xy: [f64; 2],
+    lab: [f64; 3],
+    srgb: [f64; 3],
+}
+
+fn hex(srgb: [f64; 3]) -> String {
+    let b = srgb.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
+    format!("#{:02x}{:02x}{:02x}", b[0], b[1], b[2])
+}
+
+fn slug(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .collect();
+    s.split('_').filter(|p| !p.is_empty()).collect::<Vec<_>>().join("_")
+}
+
+/// Runs the demo, writing into `args.out`.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    let out = &args.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating output directory {}", out.display()))?;
+    let presets_dir = out.join("presets");
+    std::fs::create_dir_all(&presets_dir)
+        .with_context(|| format!("creating output directory {}", presets_dir.display()))?;
+
+    let table = calib::colorchecker_n_ohta();
+    let observer = Observer::standard(StandardObserver::Cie1931_2)?;
+    let method = XyzMethod::AstmE308;
+    let srgb_space = RgbSpace::from_name("srgb")?;
+    let patches: Vec<Spectrum> = (1..table.header.len())
+        .map(|c| Spectrum::from_table(table, c).map(|s| s.with_name(table.header[c].clone())))
+        .collect::<lumifit::Result<_>>()?;
+
+    let mut rows = Vec::new();
+    for ill_name in ILLUMINANTS {
+        let illuminant = Illuminant::standard(ill_name)?;
+        let white = illuminant_white(observer, &illuminant, method)?;
+        let white_xy = xyz_to_xy(white.xyz, D65_XY);
+        for (i, sd) in patches.iter().enumerate() {
+            let t = sd_to_xyz(sd, observer, &illuminant, method, None)?;
+            let lab = t.lab_relative_to(&white)?;
+            // Rendered for an observer adapted to the illuminant: CAT02 from its white to sRGB's D65.
+            let srgb = xyz_to_rgb(t.xyz.map(|v| v / 100.0), white_xy, &srgb_space, Some(Cat::Cat02), true)?;
+            rows.push(PatchRow {
+                index: i + 1,
+                name: sd.name().to_string(),
+                illuminant: ill_name,
+                xyz: t.xyz,
+                xy: xyz_to_xy(t.xyz, D65_XY),
+                lab,
+                srgb,
+            });
+        }
+    }
+
+    // Table.
+    let mut csv = String::from("patch,name,illuminant,observer,method,X,Y,Z,x,y,L,a,b,sRGB_R,sRGB_G,sRGB_B,hex,delta_e00_vs_D65\n");
+    for r in &rows {
+        let d65 = &rows[r.index - 1];
+        let de = delta_e(r.lab, d65.lab, DeltaEMethod::Ciede2000);
+        csv.push_str(&format!(
+            "{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{:.4}\n",
+            r.index,
+            r.name,
+            r.illuminant,
+            observer.name(),
+            method.cli_name(),
+            r.xyz[0],
+            r.xyz[1],
+            r.xyz[2],
+            r.xy[0],
+            r.xy[1],
+            r.lab[0],
+            r.lab[1],
+            r.lab[2],
+            r.srgb[0],
+            r.srgb[1],
+            r.srgb[2],
+            hex(r.srgb),
+            de
+        ));
+    }
+    let table_path = out.join("colorchecker_colorimetry.csv");
+    lumifit::io::atomic_write(&table_path, csv.as_bytes())?;
+
+    // Chart.
+    let n = patches.len();
+    let swatches: Vec<SwatchPatch> = patches
+        .iter()
+        .enumerate()
+        .map(|(i, sd)| SwatchPatch {
+            name: sd.name().to_string(),
+            reflectance: sd.clone(),
+            srgb_by_illuminant: vec![rows[i].srgb, rows[n + i].srgb],
+        })
+        .collect();
+    let chart_path = out.join("colorchecker.png");
+    colorchecker_chart(
+        &chart_path,
+        "ColorChecker (N Ohta) — CIE 1931 2°, ASTM E308, sRGB (CAT02 to D65)",
+        &ILLUMINANTS.map(String::from),
+        &swatches,
+    )?;
+
+    // One reflectance preset per patch, each read back.
+    let command = format!("lumifit demo --out {}", out.display());
+    for (i, sd) in patches.iter().enumerate() {
+        let preset = MaterialPreset {
+            reflectance: Some(ReflectanceSection::new(sd.wavelengths().to_vec(), sd.values().to_vec())),
+            ..MaterialPreset::new(
+                format!("ColorChecker N Ohta {:02} {}", i + 1, sd.name()),
+                Provenance::new(
+                    &command,
+                    &[("calib/colorchecker_n_ohta.csv (embedded)", calib::COLORCHECKER_N_OHTA_CSV.as_bytes())],
+                ),
+            )
+        };
+        let path = presets_dir.join(format!("{:02}_{}.json", i + 1, slug(sd.name())));
+        write_preset(&path, &preset)?;
+        let back = read_material(&path)?;
+        if back != preset {
+            anyhow::bail!("{}: the preset read back differs from the one written", path.display());
+        }
+    }
+
+    print_summary(&rows[..n], out, &table_path, &chart_path, &presets_dir);
+    Ok(())
+}
+
+fn print_summary(d65: &[PatchRow], out: &Path, table: &Path, chart: &Path, presets: &Path) {
+    println!("lumifit demo — ColorChecker N Ohta under D65 (CIE 1931 2°, ASTM E308)");
+    println!("{:>3}  {:<21} {:>7} {:>7} {:>7}   {:>7}", "#", "patch", "L*", "a*", "b*", "sRGB");
+    for r in d65 {
+        println!(
+            "{:>3}  {:<21} {:>7.2} {:>7.2} {:>7.2}   {}",
+            r.index,
+            r.name,
+            r.lab[0],
+            r.lab[1],
+            r.lab[2],
+            hex(r.srgb)
+        );
+    }
+    println!();
+    println!("wrote {}", table.display());
+    println!("wrote {}", chart.display());
+    println!("wrote {} (24 material presets, each read back)", presets.display());
+    println!("all outputs in {}", out.display());
+}
