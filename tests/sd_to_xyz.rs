@@ -163,11 +163,40 @@ fn astm_e308_rejects_intervals_it_does_not_define() {
 }
 
 #[test]
+fn observers_cannot_be_mixed() {
+    let ill = Illuminant::standard("D65").unwrap();
+    let grid: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let sd = Spectrum::new("flat", grid.clone(), vec![0.4; 41]).unwrap();
+    let o2 = Observer::standard(StandardObserver::Cie1931_2).unwrap();
+    let o10 = Observer::standard(StandardObserver::Cie1964_10).unwrap();
+    let white10 = lumifit::colorimetry::illuminant_white(o10, &ill, XyzMethod::AstmE308, &grid, None).unwrap();
+    let t2 = sd_to_xyz(&sd, o2, &ill, XyzMethod::AstmE308, None).unwrap();
+    let e = t2.lab_relative_to(&white10).unwrap_err().to_string();
+    assert!(e.contains("observer mismatch") && e.contains("cie1931-2") && e.contains("cie1964-10"), "{e}");
+}
+
+#[test]
 fn a_perfect_reflector_has_y_100_under_every_illuminant() {
     let obs = Observer::standard(StandardObserver::Cie1964_10).unwrap();
     for name in ["A", "D65", "FL11", "HP3", "LED-B5"] {
         let ill = Illuminant::standard(name).unwrap();
-        let w = lumifit::colorimetry::illuminant_white(obs, &ill, XyzMethod::AstmE308).unwrap();
-        assert!((w.xyz[1] - 100.0).abs() < 1e-9, "{name}: {:?}", w.xyz);
+        for step in [1.0, 5.0, 10.0, 20.0] {
+            let grid: Vec<f64> = (0..).map(|i| 400.0 + step * i as f64).take_while(|&w| w <= 700.0).collect();
+            for method in [XyzMethod::AstmE308, XyzMethod::Integration] {
+                let w = lumifit::colorimetry::illuminant_white(obs, &ill, method, &grid, None).unwrap();
+                assert!((w.xyz[1] - 100.0).abs() < 1e-9, "{name} {step} nm {method:?}: {:?}", w.xyz);
+            }
+        }
     }
+}
+
+#[test]
+fn a_flat_reflector_is_neutral_relative_to_the_white_on_its_grid() {
+    let obs = Observer::standard(StandardObserver::Cie1931_2).unwrap();
+    let ill = Illuminant::standard("A").unwrap();
+    let grid: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let sd = Spectrum::new("flat", grid.clone(), vec![0.4; 41]).unwrap();
+    let white = lumifit::colorimetry::illuminant_white(obs, &ill, XyzMethod::AstmE308, &grid, None).unwrap();
+    let lab = sd_to_xyz(&sd, obs, &ill, XyzMethod::AstmE308, None).unwrap().lab_relative_to(&white).unwrap();
+    assert!(lab[1].abs() < 1e-9 && lab[2].abs() < 1e-9, "{lab:?}");
 }

@@ -128,15 +128,18 @@ pub fn sd_to_xyz(
     })
 }
 
-/// Tristimulus values of the illuminant itself as seen on a perfect reflector (its white point,
-/// Y = 100 without `k`).
-pub fn illuminant_white(observer: &Observer, illuminant: &Illuminant, method: XyzMethod) -> Result<Tristimulus> {
-    let ones = Spectrum::new(
-        "perfect reflector",
-        illuminant.spectrum().wavelengths().to_vec(),
-        vec![1.0; illuminant.spectrum().len()],
-    )?;
-    sd_to_xyz(&ones, observer, illuminant, method, None)
+/// Tristimulus values of the perfect reflector under `illuminant` (its white point), computed on
+/// the sample grid `wavelengths_nm` with the same method and `k` as the samples it will serve as
+/// white for — so a flat reflectance has a* = b* = 0 exactly. Y = 100 without `k`.
+pub fn illuminant_white(
+    observer: &Observer,
+    illuminant: &Illuminant,
+    method: XyzMethod,
+    wavelengths_nm: &[f64],
+    k: Option<f64>,
+) -> Result<Tristimulus> {
+    let ones = Spectrum::new("perfect reflector", wavelengths_nm.to_vec(), vec![1.0; wavelengths_nm.len()])?;
+    sd_to_xyz(&ones, observer, illuminant, method, k)
 }
 
 /// Aligns `s` onto the grid of `target` unless it is already on it (colour compares shapes).

@@ -12,7 +12,7 @@ use lumifit::colorimetry::{illuminant_white, sd_to_xyz, Observer, StandardObserv
 use lumifit::io::spectrum_csv;
 use serde::Serialize;
 
-use super::{parse_triplet, resolve_illuminant};
+use super::{emit, parse_triplet, resolve_illuminant};
 use crate::args::{ConvertArgs, DeltaEArgs, TableArgs, XyzArgs};
 
 #[derive(Serialize)]
@@ -41,10 +41,10 @@ pub fn xyz(a: &XyzArgs) -> Result<()> {
     let method = XyzMethod::from_name(&a.method)?;
     let t = sd_to_xyz(&sd, observer, &illuminant, method, a.k)
         .with_context(|| format!("computing XYZ of {}", a.sd.display()))?;
-    let white = illuminant_white(observer, &illuminant, method)?;
+    let white = illuminant_white(observer, &illuminant, method, sd.wavelengths(), a.k)?;
     let white_xy = xyz_to_xy(white.xyz, D65_XY);
     let xyy = xyz_to_xyy(t.xyz, white_xy);
-    // Lab and sRGB of the colour relative to the illuminant's white (Y_w = 100 without k).
+    // Lab and sRGB of the colour relative to the illuminant's white on the same grid.
     let lab = t.lab_relative_to(&white)?;
     let srgb_space = RgbSpace::from_name("srgb")?;
     let xyz01 = t.xyz.map(|v| v / white.xyz[1]);
@@ -60,8 +60,7 @@ pub fn xyz(a: &XyzArgs) -> Result<()> {
         white_xyz: white.xyz,
         k: a.k,
     };
-    println!("{}", serde_json::to_string_pretty(&report)?);
-    Ok(())
+    emit(&serde_json::to_string_pretty(&report)?)
 }
 
 /// `lumifit color table`: XYZ, xy and Lab of every column of a spectral table.
@@ -70,7 +69,7 @@ pub fn table(a: &TableArgs) -> Result<()> {
     let illuminant = resolve_illuminant(&a.illuminant)?;
     let observer = Observer::standard(StandardObserver::from_name(&a.observer)?)?;
     let method = XyzMethod::from_name(&a.method)?;
-    let white = illuminant_white(observer, &illuminant, method)?;
+    let white = illuminant_white(observer, &illuminant, method, ms.wavelengths(), None)?;
     let white_xy = xyz_to_xy(white.xyz, D65_XY);
     let started = std::time::Instant::now();
     // One linear operator for the shared grid, then 3·n multiply-adds per spectrum.
@@ -97,9 +96,8 @@ pub fn table(a: &TableArgs) -> Result<()> {
         ));
     }
     lumifit::io::atomic_write(&a.out, out.as_bytes())?;
-    println!(
-        "{}",
-        serde_json::json!({
+    emit(
+        &serde_json::json!({
             "spectra": ms.n_channels(),
             "samples_per_spectrum": ms.len(),
             "observer": observer.name(),
@@ -109,8 +107,8 @@ pub fn table(a: &TableArgs) -> Result<()> {
             "spectra_per_second": ms.n_channels() as f64 / seconds.max(1e-12),
             "out": a.out.display().to_string(),
         })
-    );
-    Ok(())
+        .to_string(),
+    )
 }
 
 /// `lumifit color delta-e`.
@@ -119,8 +117,7 @@ pub fn delta_e(a: &DeltaEArgs) -> Result<()> {
     let l2 = parse_triplet("--lab2", &a.lab2)?;
     let method = DeltaEMethod::from_name(&a.method)?;
     let d = delta_e_fn(l1, l2, method);
-    println!("{}", serde_json::json!({ "delta_e": d, "method": a.method }));
-    Ok(())
+    emit(&serde_json::json!({ "delta_e": d, "method": a.method }).to_string())
 }
 
 /// White chromaticity (CIE 1931 2°, colour's `CCS_ILLUMINANTS`) of a named illuminant.
@@ -164,9 +161,8 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
         "linear-srgb" => xyz_to_rgb(xyz, w, &srgb, Some(Cat::Cat02), false)?,
         other => anyhow::bail!("--to: unknown representation '{other}'"),
     };
-    println!(
-        "{}",
-        serde_json::json!({ "from": a.from, "to": a.to, "input": v, "value": out, "white": a.white, "white_xy": w })
-    );
-    Ok(())
+    emit(
+        &serde_json::json!({ "from": a.from, "to": a.to, "input": v, "value": out, "white": a.white, "white_xy": w })
+            .to_string(),
+    )
 }

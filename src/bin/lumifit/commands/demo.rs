@@ -19,6 +19,7 @@ use lumifit::plot::{colorchecker_chart, SwatchPatch};
 use lumifit::preset::{read_material, write_preset, MaterialPreset, Provenance, ReflectanceSection};
 use lumifit::spectrum::Spectrum;
 
+use super::emit;
 use crate::args::DemoArgs;
 
 const ILLUMINANTS: [&str; 2] = ["D65", "A"];
@@ -65,7 +66,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let mut rows = Vec::new();
     for ill_name in ILLUMINANTS {
         let illuminant = Illuminant::standard(ill_name)?;
-        let white = illuminant_white(observer, &illuminant, method)?;
+        let white = illuminant_white(observer, &illuminant, method, patches[0].wavelengths(), None)?;
         let white_xy = xyz_to_xy(white.xyz, D65_XY);
         for (i, sd) in patches.iter().enumerate() {
             let t = sd_to_xyz(sd, observer, &illuminant, method, None)?;
@@ -154,27 +155,26 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
     }
 
-    print_summary(&rows[..n], out, &table_path, &chart_path, &presets_dir);
-    Ok(())
+    print_summary(&rows[..n], out, &table_path, &chart_path, &presets_dir)
 }
 
-fn print_summary(d65: &[PatchRow], out: &Path, table: &Path, chart: &Path, presets: &Path) {
-    println!("lumifit demo — ColorChecker N Ohta under D65 (CIE 1931 2°, ASTM E308)");
-    println!("{:>3}  {:<21} {:>7} {:>7} {:>7}   {:>7}", "#", "patch", "L*", "a*", "b*", "sRGB");
+fn print_summary(d65: &[PatchRow], out: &Path, table: &Path, chart: &Path, presets: &Path) -> Result<()> {
+    let mut text = String::from("lumifit demo — ColorChecker N Ohta under D65 (CIE 1931 2°, ASTM E308)\n");
+    text.push_str(&format!("{:>3}  {:<21} {:>7} {:>7} {:>7}   {:>7}\n", "#", "patch", "L*", "a*", "b*", "sRGB"));
     for r in d65 {
-        println!(
-            "{:>3}  {:<21} {:>7.2} {:>7.2} {:>7.2}   {}",
+        text.push_str(&format!(
+            "{:>3}  {:<21} {:>7.2} {:>7.2} {:>7.2}   {}\n",
             r.index,
             r.name,
             r.lab[0],
             r.lab[1],
             r.lab[2],
             hex(r.srgb)
-        );
+        ));
     }
-    println!();
-    println!("wrote {}", table.display());
-    println!("wrote {}", chart.display());
-    println!("wrote {} (24 material presets, each read back)", presets.display());
-    println!("all outputs in {}", out.display());
+    text.push_str(&format!("\nwrote {}\n", table.display()));
+    text.push_str(&format!("wrote {}\n", chart.display()));
+    text.push_str(&format!("wrote {} (24 material presets, each read back)\n", presets.display()));
+    text.push_str(&format!("all outputs in {}", out.display()));
+    emit(&text)
 }

@@ -22,10 +22,19 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Color(ColorCommand::Convert(a)) => color::convert(&a),
         Command::Preset(PresetCommand::Validate { file }) => {
             let report = preset::validate(&file)?;
-            println!("{}", serde_json::to_string_pretty(&report)?);
-            Ok(())
+            emit(&serde_json::to_string_pretty(&report)?)
         }
         Command::Demo(a) => demo::run(&a),
+    }
+}
+
+/// Writes a line to standard output; a closed pipe (`lumifit … | head`) is not an error.
+pub fn emit(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
     }
 }
 
