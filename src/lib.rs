@@ -6,7 +6,8 @@
 //! | layer | modules |
 //! |---|---|
 //! | L0 | [`error`], [`math`], [`table`], [`calib`] |
-//! | L1 | [`spectrum`], [`colorimetry`] |
+//! | L1 | [`spectrum`], [`colorimetry`], [`fit`] |
+//! | L2 | [`fluor`], [`phosphor`] |
 //! | L3 | [`io`], [`preset`], [`plot`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
@@ -14,8 +15,11 @@
 pub mod calib;
 pub mod colorimetry;
 pub mod error;
+pub mod fit;
+pub mod fluor;
 pub mod io;
 pub mod math;
+pub mod phosphor;
 pub mod plot;
 pub mod preset;
 pub mod spectrum;

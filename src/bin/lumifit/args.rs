@@ -18,6 +18,15 @@ pub enum Command {
     /// Colorimetry: spectra to XYZ/Lab/sRGB, colour differences, conversions.
     #[command(subcommand)]
     Color(ColorCommand),
+    /// Fluorescence: reduce Donaldson (bispectral) matrices for RGB/XYZ renderers (Fichet 2024).
+    #[command(subcommand)]
+    Fluor(crate::commands::fluor::FluorCommand),
+    /// Phosphorescence: simulate the rate equation and fit decays (Nalbach 2017).
+    #[command(subcommand)]
+    Phos(crate::commands::phos::PhosCommand),
+    /// Synthetic test data rendered by lumifit's own models.
+    #[command(subcommand)]
+    Synth(crate::commands::synth::SynthCommand),
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),

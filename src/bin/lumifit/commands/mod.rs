@@ -3,7 +3,10 @@
 
 pub mod color;
 pub mod demo;
+pub mod fluor;
+pub mod phos;
 pub mod preset;
+pub mod synth;
 
 use std::path::Path;
 
@@ -24,6 +27,9 @@ pub fn run(cli: Cli) -> Result<()> {
             let report = preset::validate(&file)?;
             emit(&serde_json::to_string_pretty(&report)?)
         }
+        Command::Fluor(c) => fluor::run(c),
+        Command::Phos(c) => phos::run(c),
+        Command::Synth(c) => synth::run(c),
         Command::Demo(a) => demo::run(&a),
     }
 }

@@ -1,0 +1,1 @@
+//! Solvers, options and reports shared by the fitting domains (no physics).

@@ -1,0 +1,1 @@
+//! Fluorescence: Donaldson-matrix reduction (Fichet et al. 2024).
