@@ -57,10 +57,15 @@ impl CmfTable {
 
     /// The parsed table `wavelength_nm,x_bar,y_bar,z_bar`.
     pub fn table(self) -> &'static NumericTable {
-        static CELLS: [OnceLock<NumericTable>; 4] =
-            [OnceLock::new(), OnceLock::new(), OnceLock::new(), OnceLock::new()];
+        static CELLS: [OnceLock<NumericTable>; 4] = [
+            OnceLock::new(),
+            OnceLock::new(),
+            OnceLock::new(),
+            OnceLock::new(),
+        ];
         let idx = CmfTable::ALL.iter().position(|&c| c == self).unwrap_or(0);
-        CELLS[idx].get_or_init(|| parse_embedded(self.csv(), &format!("calib/cmfs/{}.csv", self.key())))
+        CELLS[idx]
+            .get_or_init(|| parse_embedded(self.csv(), &format!("calib/cmfs/{}.csv", self.key())))
     }
 }
 
@@ -141,7 +146,12 @@ pub fn illuminant_table(name: &str) -> Result<&'static NumericTable> {
 /// The CIE D-series basis `wavelength_nm,S0,S1,S2` (300–830 nm, 5 nm).
 pub fn d_series_basis() -> &'static NumericTable {
     static CELL: OnceLock<NumericTable> = OnceLock::new();
-    CELL.get_or_init(|| parse_embedded(include_str!("../calib/d_series_basis.csv"), "calib/d_series_basis.csv"))
+    CELL.get_or_init(|| {
+        parse_embedded(
+            include_str!("../calib/d_series_basis.csv"),
+            "calib/d_series_basis.csv",
+        )
+    })
 }
 
 /// The CSV text of `calib/colorchecker_n_ohta.csv` (for provenance hashes).
@@ -185,10 +195,12 @@ pub struct ColourspaceData {
 pub fn colourspaces() -> &'static ColourspaceData {
     static CELL: OnceLock<ColourspaceData> = OnceLock::new();
     CELL.get_or_init(|| {
-        serde_json::from_str(include_str!("../calib/colourspaces.json")).unwrap_or_else(|_| ColourspaceData {
-            source: "invalid calib/colourspaces.json".into(),
-            white_chromaticities_xy: BTreeMap::new(),
-            rgb_colourspaces: BTreeMap::new(),
+        serde_json::from_str(include_str!("../calib/colourspaces.json")).unwrap_or_else(|_| {
+            ColourspaceData {
+                source: "invalid calib/colourspaces.json".into(),
+                white_chromaticities_xy: BTreeMap::new(),
+                rgb_colourspaces: BTreeMap::new(),
+            }
         })
     })
 }

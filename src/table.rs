@@ -28,7 +28,9 @@ impl NumericTable {
 
     /// Index of the column named `name` (case-insensitive).
     pub fn column_index(&self, name: &str) -> Option<usize> {
-        self.header.iter().position(|h| h.eq_ignore_ascii_case(name))
+        self.header
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name))
     }
 }
 
@@ -42,7 +44,10 @@ pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
         ));
     }
     let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
         Error::parse(
             source,
             line,
@@ -66,7 +71,10 @@ pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').map(|f| f.trim().trim_matches('"')).collect();
+        let fields: Vec<&str> = line
+            .split(',')
+            .map(|f| f.trim().trim_matches('"'))
+            .collect();
         match &header {
             None => {
                 if fields.iter().all(|f| f.parse::<f64>().is_ok()) {
@@ -82,7 +90,9 @@ pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
                     return Err(Error::parse(
                         source,
                         line_no,
-                        format!("expected a header row with at least two named columns, found '{line}'"),
+                        format!(
+                            "expected a header row with at least two named columns, found '{line}'"
+                        ),
                     ));
                 }
                 columns = vec![Vec::new(); fields.len()];
@@ -123,7 +133,11 @@ pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
         }
     }
     let header = header.ok_or_else(|| {
-        Error::parse(source, 0, "no header row; expected 'wavelength_nm,value' and data rows")
+        Error::parse(
+            source,
+            0,
+            "no header row; expected 'wavelength_nm,value' and data rows",
+        )
     })?;
     if lines.is_empty() {
         return Err(Error::parse(
@@ -146,7 +160,8 @@ mod tests {
 
     #[test]
     fn parses_a_table_with_comments_and_blank_lines() {
-        let t = parse_numeric_csv(b"# c\nwavelength_nm,value\n\n400,1.5\n410,2\n", "t.csv").unwrap();
+        let t =
+            parse_numeric_csv(b"# c\nwavelength_nm,value\n\n400,1.5\n410,2\n", "t.csv").unwrap();
         assert_eq!(t.header, vec!["wavelength_nm", "value"]);
         assert_eq!(t.columns[1], vec![1.5, 2.0]);
         assert_eq!(t.lines, vec![4, 5]);

@@ -13,7 +13,9 @@ fn layer(module: &str) -> Option<f64> {
         "calib" => 0.2,
         "spectrum" | "fit" | "capture" => 1.0,
         "colorimetry" => 1.1,
-        "lvf" | "recovery" | "phosphor" | "fluor" | "dispersion" | "photometry" | "afterimage" => 2.0,
+        "lvf" | "recovery" | "phosphor" | "fluor" | "dispersion" | "photometry" | "afterimage" => {
+            2.0
+        }
         "io" => 3.0,
         "preset" | "plot" => 3.1,
         _ => return None,
@@ -40,13 +42,22 @@ fn modules_import_only_from_lower_layers() {
     let mut checked = 0;
     for f in files {
         let rel = f.strip_prefix(&src).unwrap();
-        let first = rel.components().next().unwrap().as_os_str().to_string_lossy().to_string();
+        let first = rel
+            .components()
+            .next()
+            .unwrap()
+            .as_os_str()
+            .to_string_lossy()
+            .to_string();
         if first == "bin" || first == "lib.rs" {
             continue;
         }
         let module = first.trim_end_matches(".rs").to_string();
         let Some(own) = layer(&module) else {
-            violations.push(format!("{}: module '{module}' has no layer in docs/architecture.md", rel.display()));
+            violations.push(format!(
+                "{}: module '{module}' has no layer in docs/architecture.md",
+                rel.display()
+            ));
             continue;
         };
         let text = std::fs::read_to_string(&f).unwrap();
@@ -54,7 +65,10 @@ fn modules_import_only_from_lower_layers() {
             let mut rest = line;
             while let Some(pos) = rest.find("crate::") {
                 rest = &rest[pos + 7..];
-                let target: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                let target: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
                 if target.is_empty() || target == module {
                     continue;
                 }
@@ -71,6 +85,13 @@ fn modules_import_only_from_lower_layers() {
             }
         }
     }
-    assert!(violations.is_empty(), "layering violations:\n{}", violations.join("\n"));
-    assert!(checked > 10, "the scan found only {checked} cross-module references; is it reading src/?");
+    assert!(
+        violations.is_empty(),
+        "layering violations:\n{}",
+        violations.join("\n")
+    );
+    assert!(
+        checked > 10,
+        "the scan found only {checked} cross-module references; is it reading src/?"
+    );
 }

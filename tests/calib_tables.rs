@@ -29,8 +29,16 @@ fn cmf_tables_equal_colour_bit_for_bit() {
         let key = format!("cmfs/{}", c.key());
         let want = &f["tables"][&key];
         let t = c.table();
-        assert_eq!(t.n_rows() as u64, want["rows"].as_u64().unwrap(), "{key} rows");
-        assert_eq!(digest(t), want["sha256"].as_str().unwrap(), "{key} differs from colour's table");
+        assert_eq!(
+            t.n_rows() as u64,
+            want["rows"].as_u64().unwrap(),
+            "{key} rows"
+        );
+        assert_eq!(
+            digest(t),
+            want["sha256"].as_str().unwrap(),
+            "{key} differs from colour's table"
+        );
     }
 }
 
@@ -41,6 +49,10 @@ fn illuminant_tables_equal_colour_bit_for_bit() {
         let key = format!("illuminants/{name}");
         let want = &f["tables"][&key];
         let t = calib::illuminant_table(name).unwrap();
-        assert_eq!(digest(t), want["sha256"].as_str().unwrap(), "{key} differs from colour's table");
+        assert_eq!(
+            digest(t),
+            want["sha256"].as_str().unwrap(),
+            "{key} differs from colour's table"
+        );
     }
 }

@@ -42,7 +42,11 @@ fn json(o: &Output) -> serde_json::Value {
 /// Asserts exit code 2, no panic, and that stderr contains every fragment.
 fn assert_rejected(o: &Output, fragments: &[&str]) {
     let e = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "expected exit code 2, stderr: {e}");
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "expected exit code 2, stderr: {e}"
+    );
     assert!(!e.contains("panicked"), "panic: {e}");
     for f in fragments {
         assert!(e.contains(f), "stderr lacks '{f}': {e}");
@@ -63,12 +67,24 @@ fn color_xyz_agrees_with_colour_for_both_methods_and_three_observers() {
     let (f, cases) = fixture_cases();
     let mut checked = 0;
     // Spectra 0..4 cover 1, 5, 10 and 20 nm.
-    for case in cases.iter().filter(|c| c["spectrum"].as_u64().unwrap() < 4 && c["k"].is_null()) {
+    for case in cases
+        .iter()
+        .filter(|c| c["spectrum"].as_u64().unwrap() < 4 && c["k"].is_null())
+    {
         let sid = case["spectrum"].as_u64().unwrap() as usize;
         let s = &f["spectra"][sid];
         let mut csv = String::from("wavelength_nm,value\n");
-        for (w, v) in s["wavelength_nm"].as_array().unwrap().iter().zip(s["value"].as_array().unwrap()) {
-            csv.push_str(&format!("{},{}\n", w.as_f64().unwrap(), v.as_f64().unwrap()));
+        for (w, v) in s["wavelength_nm"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(s["value"].as_array().unwrap())
+        {
+            csv.push_str(&format!(
+                "{},{}\n",
+                w.as_f64().unwrap(),
+                v.as_f64().unwrap()
+            ));
         }
         let p = write(dir.path(), &format!("s{sid}.csv"), csv.as_bytes());
         let out = json(&lumifit(&[
@@ -86,7 +102,10 @@ fn color_xyz_agrees_with_colour_for_both_methods_and_three_observers() {
         for c in 0..3 {
             let got = out["XYZ"][c].as_f64().unwrap();
             let want = case["xyz"][c].as_f64().unwrap();
-            assert!((got - want).abs() <= 1e-6 * want.abs(), "{case}: {got} vs {want}");
+            assert!(
+                (got - want).abs() <= 1e-6 * want.abs(),
+                "{case}: {got} vs {want}"
+            );
         }
         for key in ["xyY", "Lab", "sRGB"] {
             assert_eq!(out[key].as_array().unwrap().len(), 3, "{key}");
@@ -102,7 +121,10 @@ fn color_xyz_reads_standard_input_and_uses_colour_defaults() {
     for i in 0..=80 {
         csv.push_str(&format!("{},{}\n", 380 + 5 * i, 0.5));
     }
-    let out = json(&lumifit_stdin(&["color", "xyz", "--sd", "-"], csv.as_bytes()));
+    let out = json(&lumifit_stdin(
+        &["color", "xyz", "--sd", "-"],
+        csv.as_bytes(),
+    ));
     assert_eq!(out["observer"], "cie1931-2");
     assert_eq!(out["illuminant"], "D65");
     assert_eq!(out["method"], "astm-e308");
@@ -113,16 +135,49 @@ fn color_xyz_reads_standard_input_and_uses_colour_defaults() {
 
 #[test]
 fn delta_e_prints_json() {
-    let out = json(&lumifit(&["color", "delta-e", "--lab1", "50,2.6772,-79.7751", "--lab2", "50,0,-82.7485"]));
+    let out = json(&lumifit(&[
+        "color",
+        "delta-e",
+        "--lab1",
+        "50,2.6772,-79.7751",
+        "--lab2",
+        "50,0,-82.7485",
+    ]));
     // Sharma et al. (2005) pair 1: ΔE00 = 2.0425.
-    assert!((out["delta_e"].as_f64().unwrap() - 2.0425).abs() < 5e-5, "{out}");
+    assert!(
+        (out["delta_e"].as_f64().unwrap() - 2.0425).abs() < 5e-5,
+        "{out}"
+    );
 }
 
 #[test]
 fn convert_round_trips_lab_through_xyz() {
-    let lab = json(&lumifit(&["color", "convert", "--from", "xyz", "--to", "lab", "--value", "0.2,0.3,0.4"]));
-    let v: Vec<String> = lab["value"].as_array().unwrap().iter().map(|x| x.to_string()).collect();
-    let back = json(&lumifit(&["color", "convert", "--from", "lab", "--to", "xyz", "--value", &v.join(",")]));
+    let lab = json(&lumifit(&[
+        "color",
+        "convert",
+        "--from",
+        "xyz",
+        "--to",
+        "lab",
+        "--value",
+        "0.2,0.3,0.4",
+    ]));
+    let v: Vec<String> = lab["value"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+    let back = json(&lumifit(&[
+        "color",
+        "convert",
+        "--from",
+        "lab",
+        "--to",
+        "xyz",
+        "--value",
+        &v.join(","),
+    ]));
     for (i, want) in [0.2, 0.3, 0.4].iter().enumerate() {
         assert!((back["value"][i].as_f64().unwrap() - want).abs() < 1e-12);
     }
@@ -131,7 +186,11 @@ fn convert_round_trips_lab_through_xyz() {
 #[test]
 fn decreasing_wavelengths_are_rejected_naming_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(dir.path(), "bad.csv", b"wavelength_nm,value\n400,0.1\n410,0.2\n405,0.3\n");
+    let p = write(
+        dir.path(),
+        "bad.csv",
+        b"wavelength_nm,value\n400,0.1\n410,0.2\n405,0.3\n",
+    );
     let o = lumifit(&["color", "xyz", "--sd", p.to_str().unwrap()]);
     assert_rejected(&o, &["bad.csv", "line 4", "strictly increasing"]);
 }
@@ -139,15 +198,26 @@ fn decreasing_wavelengths_are_rejected_naming_file_and_line() {
 #[test]
 fn a_nan_is_rejected_naming_file_line_and_column() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(dir.path(), "nan.csv", b"wavelength_nm,value\n400,0.1\n410,NaN\n");
+    let p = write(
+        dir.path(),
+        "nan.csv",
+        b"wavelength_nm,value\n400,0.1\n410,NaN\n",
+    );
     let o = lumifit(&["color", "xyz", "--sd", p.to_str().unwrap()]);
-    assert_rejected(&o, &["nan.csv", "line 3", "column 'value'", "finite number"]);
+    assert_rejected(
+        &o,
+        &["nan.csv", "line 3", "column 'value'", "finite number"],
+    );
 }
 
 #[test]
 fn a_missing_column_is_rejected_naming_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(dir.path(), "short.csv", b"wavelength_nm,value\n400,0.1\n410\n");
+    let p = write(
+        dir.path(),
+        "short.csv",
+        b"wavelength_nm,value\n400,0.1\n410\n",
+    );
     let o = lumifit(&["color", "xyz", "--sd", p.to_str().unwrap()]);
     assert_rejected(&o, &["short.csv", "line 3", "expected 2 columns"]);
 }
@@ -155,10 +225,28 @@ fn a_missing_column_is_rejected_naming_file_and_line() {
 #[test]
 fn unknown_illuminant_and_observer_are_rejected_with_the_accepted_names() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(dir.path(), "ok.csv", b"wavelength_nm,value\n400,0.1\n410,0.2\n");
-    let o = lumifit(&["color", "xyz", "--sd", p.to_str().unwrap(), "--illuminant", "D66"]);
+    let p = write(
+        dir.path(),
+        "ok.csv",
+        b"wavelength_nm,value\n400,0.1\n410,0.2\n",
+    );
+    let o = lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        p.to_str().unwrap(),
+        "--illuminant",
+        "D66",
+    ]);
     assert_rejected(&o, &["unknown illuminant 'D66'", "D65", "LED-B3"]);
-    let o = lumifit(&["color", "xyz", "--sd", p.to_str().unwrap(), "--observer", "cie1931-3"]);
+    let o = lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        p.to_str().unwrap(),
+        "--observer",
+        "cie1931-3",
+    ]);
     assert_rejected(&o, &["cie1931-3", "cie1931-2"]);
 }
 
@@ -173,7 +261,13 @@ fn an_empty_file_is_rejected() {
 #[test]
 fn a_binary_file_is_rejected() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(dir.path(), "image.png", &[0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0x0d, 0xff, 0xfe]);
+    let p = write(
+        dir.path(),
+        "image.png",
+        &[
+            0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0x0d, 0xff, 0xfe,
+        ],
+    );
     let o = lumifit(&["color", "xyz", "--sd", p.to_str().unwrap()]);
     assert_rejected(&o, &["image.png", "line 1", "not a text file"]);
 }
@@ -199,7 +293,14 @@ fn color_table_writes_one_row_per_spectrum_and_nothing_on_error() {
     }
     let p = write(dir.path(), "many.csv", csv.as_bytes());
     let out = dir.path().join("xyz.csv");
-    let o = lumifit(&["color", "table", "--sds", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = lumifit(&[
+        "color",
+        "table",
+        "--sds",
+        p.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     let summary = json(&o);
     assert_eq!(summary["spectra"], 2);
     let text = std::fs::read_to_string(&out).unwrap();
@@ -207,7 +308,14 @@ fn color_table_writes_one_row_per_spectrum_and_nothing_on_error() {
     assert!(text.starts_with("name,X,Y,Z,x,y,L,a,b\nflat,"));
     // Bad input: the previous output stays as it was.
     let bad = write(dir.path(), "bad.csv", b"wavelength_nm,a\n400,1\n390,1\n");
-    let o = lumifit(&["color", "table", "--sds", bad.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = lumifit(&[
+        "color",
+        "table",
+        "--sds",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_rejected(&o, &["bad.csv", "line 3"]);
     assert_eq!(std::fs::read_to_string(&out).unwrap(), text);
 }

@@ -5,7 +5,9 @@
 
 use std::path::PathBuf;
 
-use lumifit::colorimetry::{sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod, XyzOperator};
+use lumifit::colorimetry::{
+    sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod, XyzOperator,
+};
 use lumifit::spectrum::Spectrum;
 use serde::Deserialize;
 
@@ -44,7 +46,8 @@ struct Case {
 
 fn load() -> Fixture {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/sd_to_xyz.json");
-    let text = std::fs::read_to_string(&p).expect("fixtures/sd_to_xyz.json is part of the repository");
+    let text =
+        std::fs::read_to_string(&p).expect("fixtures/sd_to_xyz.json is part of the repository");
     serde_json::from_str(&text).expect("fixture parses")
 }
 
@@ -102,9 +105,17 @@ fn sd_to_xyz_matches_colour_for_every_fixture_case() {
         "{} of {} components disagree with colour:\n{}",
         failures.len(),
         f.cases.len() * 3,
-        failures.iter().take(20).cloned().collect::<Vec<_>>().join("\n")
+        failures
+            .iter()
+            .take(20)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join("\n")
     );
-    eprintln!("sd_to_xyz: {} cases, worst relative difference {worst:.2e}", f.cases.len());
+    eprintln!(
+        "sd_to_xyz: {} cases, worst relative difference {worst:.2e}",
+        f.cases.len()
+    );
 }
 
 #[test]
@@ -116,7 +127,10 @@ fn the_fixture_covers_the_required_grid_of_cases() {
         intervals.insert(d as i64);
     }
     for want in [1, 5, 10, 20] {
-        assert!(intervals.contains(&want), "no {want} nm spectra in the fixture");
+        assert!(
+            intervals.contains(&want),
+            "no {want} nm spectra in the fixture"
+        );
     }
     for ill in ["A", "D65", "FL2", "LED-B3"] {
         for obs in ["cie1931-2", "cie1964-10", "cie2015-2"] {
@@ -144,7 +158,10 @@ fn the_xyz_operator_equals_the_direct_computation() {
             let a = op.apply(sd.values()).unwrap();
             let b = sd_to_xyz(&sd, obs, &ill, method, None).unwrap().xyz;
             for c in 0..3 {
-                assert!((a[c] - b[c]).abs() <= 1e-10 * b[c].abs().max(1.0), "{method:?} {a:?} vs {b:?}");
+                assert!(
+                    (a[c] - b[c]).abs() <= 1e-10 * b[c].abs().max(1.0),
+                    "{method:?} {a:?} vs {b:?}"
+                );
             }
         }
     }
@@ -156,8 +173,13 @@ fn astm_e308_rejects_intervals_it_does_not_define() {
     let sd = Spectrum::new("three-nm.csv", w, vec![0.5; 60]).unwrap();
     let obs = Observer::standard(StandardObserver::Cie1931_2).unwrap();
     let ill = Illuminant::standard("D65").unwrap();
-    let e = sd_to_xyz(&sd, obs, &ill, XyzMethod::AstmE308, None).unwrap_err().to_string();
-    assert!(e.contains("three-nm.csv") && e.contains("1, 5, 10 or 20"), "{e}");
+    let e = sd_to_xyz(&sd, obs, &ill, XyzMethod::AstmE308, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("three-nm.csv") && e.contains("1, 5, 10 or 20"),
+        "{e}"
+    );
     // Integration accepts any grid.
     assert!(sd_to_xyz(&sd, obs, &ill, XyzMethod::Integration, None).is_ok());
 }
@@ -169,10 +191,15 @@ fn observers_cannot_be_mixed() {
     let sd = Spectrum::new("flat", grid.clone(), vec![0.4; 41]).unwrap();
     let o2 = Observer::standard(StandardObserver::Cie1931_2).unwrap();
     let o10 = Observer::standard(StandardObserver::Cie1964_10).unwrap();
-    let white10 = lumifit::colorimetry::illuminant_white(o10, &ill, XyzMethod::AstmE308, &grid, None).unwrap();
+    let white10 =
+        lumifit::colorimetry::illuminant_white(o10, &ill, XyzMethod::AstmE308, &grid, None)
+            .unwrap();
     let t2 = sd_to_xyz(&sd, o2, &ill, XyzMethod::AstmE308, None).unwrap();
     let e = t2.lab_relative_to(&white10).unwrap_err().to_string();
-    assert!(e.contains("observer mismatch") && e.contains("cie1931-2") && e.contains("cie1964-10"), "{e}");
+    assert!(
+        e.contains("observer mismatch") && e.contains("cie1931-2") && e.contains("cie1964-10"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -181,10 +208,18 @@ fn a_perfect_reflector_has_y_100_under_every_illuminant() {
     for name in ["A", "D65", "FL11", "HP3", "LED-B5"] {
         let ill = Illuminant::standard(name).unwrap();
         for step in [1.0, 5.0, 10.0, 20.0] {
-            let grid: Vec<f64> = (0..).map(|i| 400.0 + step * i as f64).take_while(|&w| w <= 700.0).collect();
+            let grid: Vec<f64> = (0..)
+                .map(|i| 400.0 + step * i as f64)
+                .take_while(|&w| w <= 700.0)
+                .collect();
             for method in [XyzMethod::AstmE308, XyzMethod::Integration] {
-                let w = lumifit::colorimetry::illuminant_white(obs, &ill, method, &grid, None).unwrap();
-                assert!((w.xyz[1] - 100.0).abs() < 1e-9, "{name} {step} nm {method:?}: {:?}", w.xyz);
+                let w =
+                    lumifit::colorimetry::illuminant_white(obs, &ill, method, &grid, None).unwrap();
+                assert!(
+                    (w.xyz[1] - 100.0).abs() < 1e-9,
+                    "{name} {step} nm {method:?}: {:?}",
+                    w.xyz
+                );
             }
         }
     }
@@ -196,7 +231,11 @@ fn a_flat_reflector_is_neutral_relative_to_the_white_on_its_grid() {
     let ill = Illuminant::standard("A").unwrap();
     let grid: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
     let sd = Spectrum::new("flat", grid.clone(), vec![0.4; 41]).unwrap();
-    let white = lumifit::colorimetry::illuminant_white(obs, &ill, XyzMethod::AstmE308, &grid, None).unwrap();
-    let lab = sd_to_xyz(&sd, obs, &ill, XyzMethod::AstmE308, None).unwrap().lab_relative_to(&white).unwrap();
+    let white = lumifit::colorimetry::illuminant_white(obs, &ill, XyzMethod::AstmE308, &grid, None)
+        .unwrap();
+    let lab = sd_to_xyz(&sd, obs, &ill, XyzMethod::AstmE308, None)
+        .unwrap()
+        .lab_relative_to(&white)
+        .unwrap();
     assert!(lab[1].abs() < 1e-9 && lab[2].abs() < 1e-9, "{lab:?}");
 }

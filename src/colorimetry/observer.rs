@@ -93,9 +93,16 @@ pub struct Observer {
 impl Observer {
     /// One of the embedded CIE observers (parsed once, then shared).
     pub fn standard(which: StandardObserver) -> Result<&'static Observer> {
-        static CELLS: [OnceLock<Option<Observer>>; 4] =
-            [OnceLock::new(), OnceLock::new(), OnceLock::new(), OnceLock::new()];
-        let idx = StandardObserver::ALL.iter().position(|&o| o == which).unwrap_or(0);
+        static CELLS: [OnceLock<Option<Observer>>; 4] = [
+            OnceLock::new(),
+            OnceLock::new(),
+            OnceLock::new(),
+            OnceLock::new(),
+        ];
+        let idx = StandardObserver::ALL
+            .iter()
+            .position(|&o| o == which)
+            .unwrap_or(0);
         let cell = CELLS[idx].get_or_init(|| {
             let t = which.table().table();
             MultiSpectrum::new(
@@ -120,7 +127,10 @@ impl Observer {
     pub fn from_cmfs(name: impl Into<String>, cmfs: MultiSpectrum) -> Result<Observer> {
         if cmfs.n_channels() != 3 {
             return Err(Error::ShapeMismatch {
-                what: format!("colour-matching functions '{}' (x_bar,y_bar,z_bar)", cmfs.name()),
+                what: format!(
+                    "colour-matching functions '{}' (x_bar,y_bar,z_bar)",
+                    cmfs.name()
+                ),
                 expected: 3,
                 got: cmfs.n_channels(),
             });

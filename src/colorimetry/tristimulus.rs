@@ -92,8 +92,11 @@ impl Tristimulus {
     pub fn lab_relative_to(&self, white: &Tristimulus) -> Result<[f64; 3]> {
         self.check_same_observer(white, "L*a*b* white point")?;
         let yw = white.xyz[1];
-        if !(yw > 0.0) {
-            return Err(Error::invalid("white point", format!("Y must be positive, got {yw}")));
+        if yw.is_nan() || yw <= 0.0 {
+            return Err(Error::invalid(
+                "white point",
+                format!("Y must be positive, got {yw}"),
+            ));
         }
         let xyz = self.xyz.map(|v| v / yw);
         let xy = super::xyy::xyz_to_xy(white.xyz, D65_XY);
@@ -115,7 +118,10 @@ pub fn sd_to_xyz(
 ) -> Result<Tristimulus> {
     if let Some(k) = k {
         if !(k.is_finite() && k > 0.0) {
-            return Err(Error::invalid("k", format!("expected a positive finite number, got {k}")));
+            return Err(Error::invalid(
+                "k",
+                format!("expected a positive finite number, got {k}"),
+            ));
         }
     }
     let xyz = match method {
@@ -138,7 +144,11 @@ pub fn illuminant_white(
     wavelengths_nm: &[f64],
     k: Option<f64>,
 ) -> Result<Tristimulus> {
-    let ones = Spectrum::new("perfect reflector", wavelengths_nm.to_vec(), vec![1.0; wavelengths_nm.len()])?;
+    let ones = Spectrum::new(
+        "perfect reflector",
+        wavelengths_nm.to_vec(),
+        vec![1.0; wavelengths_nm.len()],
+    )?;
     sd_to_xyz(&ones, observer, illuminant, method, k)
 }
 
@@ -148,9 +158,16 @@ fn align_to(s: &Spectrum, target: &[f64]) -> Result<Spectrum> {
 }
 
 /// colour.sd_to_XYZ_integration with explicit CMFs and illuminant.
-fn integration(sd: &Spectrum, cmfs: &MultiSpectrum, illuminant: &Illuminant, k: Option<f64>) -> Result<[f64; 3]> {
+fn integration(
+    sd: &Spectrum,
+    cmfs: &MultiSpectrum,
+    illuminant: &Illuminant,
+    k: Option<f64>,
+) -> Result<[f64; 3]> {
     let grid = cmfs.wavelengths();
-    let ill = illuminant.spectrum().resample(grid, illuminant.interpolator())?;
+    let ill = illuminant
+        .spectrum()
+        .resample(grid, illuminant.interpolator())?;
     let r = align_to(sd, grid)?;
     Ok(integrate_on_grid(r.values(), cmfs, ill.values(), k))
 }
@@ -184,7 +201,12 @@ const PRACTICE_END_NM: f64 = 780.0;
 
 /// colour.sd_to_XYZ_ASTME308 with its defaults (practice range, 5 nm omission, 20 nm
 /// interpolation).
-fn astm_e308(sd: &Spectrum, cmfs_in: &MultiSpectrum, illuminant: &Illuminant, k: Option<f64>) -> Result<[f64; 3]> {
+fn astm_e308(
+    sd: &Spectrum,
+    cmfs_in: &MultiSpectrum,
+    illuminant: &Illuminant,
+    k: Option<f64>,
+) -> Result<[f64; 3]> {
     let cmfs_shape = cmfs_in.shape();
     if !is_close(cmfs_shape.interval_nm, 1.0) || !cmfs_in.is_uniform() {
         return Err(Error::invalid(
@@ -201,7 +223,9 @@ fn astm_e308(sd: &Spectrum, cmfs_in: &MultiSpectrum, illuminant: &Illuminant, k:
         .spectrum()
         .resample(cmfs_in.wavelengths(), illuminant.interpolator())?;
     let interval = sd.shape().interval_nm;
-    let which = [1.0, 5.0, 10.0, 20.0].into_iter().find(|&i| is_close(interval, i));
+    let which = [1.0, 5.0, 10.0, 20.0]
+        .into_iter()
+        .find(|&i| is_close(interval, i));
     let Some(mut interval) = which else {
         return Err(Error::invalid(
             "spectrum",
@@ -214,7 +238,9 @@ fn astm_e308(sd: &Spectrum, cmfs_in: &MultiSpectrum, illuminant: &Illuminant, k:
     };
     let mut sd = sd.clone();
     let s = sd.shape();
-    if (interval == 10.0 || interval == 20.0) && (s.start_nm % 10.0 != 0.0 || s.end_nm % 10.0 != 0.0) {
+    if (interval == 10.0 || interval == 20.0)
+        && (s.start_nm % 10.0 != 0.0 || s.end_nm % 10.0 != 0.0)
+    {
         // colour aligns such data to the CMF grid (1 nm); E308 does not define this case.
         sd = align_to(&sd, cmfs_in.wavelengths())?;
         interval = 1.0;
@@ -259,7 +285,10 @@ fn interpolate_20_to_10(sd: &Spectrum) -> Result<Spectrum> {
     if n < 8 {
         return Err(Error::invalid(
             "spectrum",
-            format!("'{}' has too few 20 nm samples for ASTM E308 interpolation", sd.name()),
+            format!(
+                "'{}' has too few 20 nm samples for ASTM E308 interpolation",
+                sd.name()
+            ),
         ));
     }
     for i in 0..2 {
@@ -298,12 +327,22 @@ fn lagrange_coefficients_astm_e2022(interval: usize, inner: bool) -> Vec<Vec<f64
     let m = interval - 1;
     let (offset, d) = if inner { (1.0, 4) } else { (0.0, 3) };
     let r_n = crate::spectrum::linspace(1.0 / interval as f64, 1.0 - 1.0 / interval as f64, m);
-    r_n.iter().map(|&r| lagrange_coefficients(r + offset, d)).collect()
+    r_n.iter()
+        .map(|&r| lagrange_coefficients(r + offset, d))
+        .collect()
 }
 
 /// `colour.colorimetry.tristimulus_weighting_factors_ASTME2022`: rows every `interval` nm from the
 /// start of the 1 nm CMFs.
-fn tristimulus_weighting_factors(cmfs: &MultiSpectrum, ill: &[f64], interval: usize, k: Option<f64>) -> Vec<[f64; 3]> {
+// The index arithmetic mirrors colour's (and ASTM E2022's) loops one to one, which is what makes
+// the port checkable line by line; iterator rewrites would obscure that.
+#[allow(clippy::needless_range_loop)]
+fn tristimulus_weighting_factors(
+    cmfs: &MultiSpectrum,
+    ill: &[f64],
+    interval: usize,
+    k: Option<f64>,
+) -> Vec<[f64; 3]> {
     let y = |h: usize, i: usize| cmfs.channel(i)[h];
     let s = ill;
     let w_c = cmfs.len();
@@ -360,7 +399,12 @@ fn tristimulus_weighting_factors(cmfs: &MultiSpectrum, ill: &[f64], interval: us
     w
 }
 
-fn weighting_factors_path(sd: &Spectrum, cmfs: &MultiSpectrum, ill: &Spectrum, k: Option<f64>) -> Result<[f64; 3]> {
+fn weighting_factors_path(
+    sd: &Spectrum,
+    cmfs: &MultiSpectrum,
+    ill: &Spectrum,
+    k: Option<f64>,
+) -> Result<[f64; 3]> {
     let interval = sd.shape().interval_nm.round() as usize;
     let w = tristimulus_weighting_factors(cmfs, ill.values(), interval, k);
     // colour.colorimetry.adjust_tristimulus_weighting_factors_ASTME308
@@ -373,7 +417,10 @@ fn weighting_factors_path(sd: &Spectrum, cmfs: &MultiSpectrum, ill: &Spectrum, k
     if start_index + end_index >= w.len() {
         return Err(Error::invalid(
             "spectrum",
-            format!("'{}' does not overlap the ASTM E308 range 360–780 nm", sd.name()),
+            format!(
+                "'{}' does not overlap the ASTM E308 range 360–780 nm",
+                sd.name()
+            ),
         ));
     }
     for i in 0..start_index {
@@ -392,7 +439,11 @@ fn weighting_factors_path(sd: &Spectrum, cmfs: &MultiSpectrum, ill: &Spectrum, k
     let w = &w[start_index..n - end_index];
     if w.len() != sd.len() {
         return Err(Error::ShapeMismatch {
-            what: format!("ASTM E308 weighting factors for '{}' (samples {})", sd.name(), ss),
+            what: format!(
+                "ASTM E308 weighting factors for '{}' (samples {})",
+                sd.name(),
+                ss
+            ),
             expected: w.len(),
             got: sd.len(),
         });
@@ -442,8 +493,8 @@ impl XyzOperator {
             e[j] = 1.0;
             let sd = Spectrum::new("unit", wavelengths_nm.to_vec(), e)?;
             let t = sd_to_xyz(&sd, observer, illuminant, method, k)?;
-            for c in 0..3 {
-                rows[c][j] = t.xyz[c];
+            for (row, v) in rows.iter_mut().zip(t.xyz) {
+                row[j] = v;
             }
         }
         Ok(XyzOperator {
@@ -467,11 +518,10 @@ impl XyzOperator {
                 got: values.len(),
             });
         }
-        let mut xyz = [0.0; 3];
-        for c in 0..3 {
-            xyz[c] = self.rows[c].iter().zip(values).map(|(a, b)| a * b).sum();
-        }
-        Ok(xyz)
+        Ok(self
+            .rows
+            .each_ref()
+            .map(|row| row.iter().zip(values).map(|(a, b)| a * b).sum()))
     }
 
     /// The observer the operator was built for.

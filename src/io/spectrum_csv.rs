@@ -70,7 +70,8 @@ mod tests {
 
     #[test]
     fn a_written_spectrum_reads_back_identically() {
-        let sd = Spectrum::new("s", vec![400.0, 405.5, 410.0], vec![0.1, 1.0 / 3.0, 2e-17]).unwrap();
+        let sd =
+            Spectrum::new("s", vec![400.0, 405.5, 410.0], vec![0.1, 1.0 / 3.0, 2e-17]).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.csv");
         write_spectrum(&p, &sd, "value").unwrap();

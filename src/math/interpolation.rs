@@ -185,9 +185,8 @@ impl CubicSpline {
         let dn = x[n - 1] - x[n - 3];
         lower[n - 1] = dn;
         diag[n - 1] = dx[n - 3];
-        rhs[n - 1] = (dx[n - 2] * dx[n - 2] * s[n - 3]
-            + (2.0 * dn + dx[n - 2]) * dx[n - 3] * s[n - 2])
-            / dn;
+        rhs[n - 1] =
+            (dx[n - 2] * dx[n - 2] * s[n - 3] + (2.0 * dn + dx[n - 2]) * dx[n - 3] * s[n - 2]) / dn;
         let slopes = super::linalg::solve_tridiagonal(&lower, &diag, &upper, &rhs)?;
         Ok(CubicSpline {
             x: x.to_vec(),
@@ -248,7 +247,10 @@ pub fn is_uniform(x: &[f64]) -> bool {
 pub fn resample(x: &[f64], y: &[f64], at: &[f64], method: Interpolator) -> Result<Vec<f64>> {
     let n = x.len();
     if n == 0 {
-        return Err(Error::invalid("samples", "cannot interpolate an empty table"));
+        return Err(Error::invalid(
+            "samples",
+            "cannot interpolate an empty table",
+        ));
     }
     let method = match method {
         Interpolator::Default if n >= 6 && is_uniform(x) => Interpolator::Sprague,
@@ -276,11 +278,15 @@ pub fn resample(x: &[f64], y: &[f64], at: &[f64], method: Interpolator) -> Resul
                 ));
             }
             let s = Sprague::new(x, y)?;
-            at.iter().map(|&v| inside(v).unwrap_or_else(|| s.eval(v))).collect()
+            at.iter()
+                .map(|&v| inside(v).unwrap_or_else(|| s.eval(v)))
+                .collect()
         }
         Interpolator::CubicSpline => {
             let s = CubicSpline::new(x, y)?;
-            at.iter().map(|&v| inside(v).unwrap_or_else(|| s.eval(v))).collect()
+            at.iter()
+                .map(|&v| inside(v).unwrap_or_else(|| s.eval(v)))
+                .collect()
         }
         Interpolator::Linear | Interpolator::Default => linear(x, y, at),
     })

@@ -9,7 +9,12 @@ pub type Mat3 = [[f64; 3]; 3];
 ///
 /// `lower[i]` multiplies `x[i-1]` in row `i` (`lower[0]` unused), `upper[i]` multiplies `x[i+1]`
 /// (`upper[n-1]` unused).
-pub fn solve_tridiagonal(lower: &[f64], diag: &[f64], upper: &[f64], rhs: &[f64]) -> Result<Vec<f64>> {
+pub fn solve_tridiagonal(
+    lower: &[f64],
+    diag: &[f64],
+    upper: &[f64],
+    rhs: &[f64],
+) -> Result<Vec<f64>> {
     let n = diag.len();
     if lower.len() != n || upper.len() != n || rhs.len() != n {
         return Err(Error::ShapeMismatch {
@@ -122,7 +127,13 @@ mod tests {
     #[test]
     fn tridiagonal_solve_handles_a_zero_leading_pivot() {
         // [[0,1,0],[1,2,1],[0,1,3]] x = [1, 4, 4] → x = [1, 1, 1]
-        let x = solve_tridiagonal(&[0.0, 1.0, 1.0], &[0.0, 2.0, 3.0], &[1.0, 1.0, 0.0], &[1.0, 4.0, 4.0]).unwrap();
+        let x = solve_tridiagonal(
+            &[0.0, 1.0, 1.0],
+            &[0.0, 2.0, 3.0],
+            &[1.0, 1.0, 0.0],
+            &[1.0, 4.0, 4.0],
+        )
+        .unwrap();
         for v in x {
             assert!((v - 1.0).abs() < 1e-14);
         }

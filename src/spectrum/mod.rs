@@ -50,14 +50,19 @@ impl SpectralShape {
     /// The wavelengths of the grid, computed as colour's `SpectralShape.range()`:
     /// `linspace(start, end, round((interval + end - start) / interval))`.
     pub fn wavelengths(&self) -> Vec<f64> {
-        let n = ((self.interval_nm + self.end_nm - self.start_nm) / self.interval_nm).round() as usize;
+        let n =
+            ((self.interval_nm + self.end_nm - self.start_nm) / self.interval_nm).round() as usize;
         linspace(self.start_nm, self.end_nm, n.max(1))
     }
 }
 
 impl std::fmt::Display for SpectralShape {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}–{} nm every {} nm", self.start_nm, self.end_nm, self.interval_nm)
+        write!(
+            f,
+            "{}–{} nm every {} nm",
+            self.start_nm, self.end_nm, self.interval_nm
+        )
     }
 }
 
@@ -83,7 +88,10 @@ fn validate_wavelengths(name: &str, wavelengths_nm: &[f64]) -> Result<()> {
         if !w.is_finite() {
             return Err(Error::InvalidSpectrum {
                 name: name.into(),
-                reason: format!("wavelength #{} is {w}; expected a finite number of nm", i + 1),
+                reason: format!(
+                    "wavelength #{} is {w}; expected a finite number of nm",
+                    i + 1
+                ),
             });
         }
     }
@@ -134,7 +142,11 @@ pub struct Spectrum {
 
 impl Spectrum {
     /// Builds a validated spectrum. `name` appears in every error about it.
-    pub fn new(name: impl Into<String>, wavelengths_nm: Vec<f64>, values: Vec<f64>) -> Result<Self> {
+    pub fn new(
+        name: impl Into<String>,
+        wavelengths_nm: Vec<f64>,
+        values: Vec<f64>,
+    ) -> Result<Self> {
         let name = name.into();
         validate_wavelengths(&name, &wavelengths_nm)?;
         if values.len() != wavelengths_nm.len() {
@@ -147,7 +159,10 @@ impl Spectrum {
         if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(Error::InvalidSpectrum {
                 name,
-                reason: format!("value at {} nm is {v}; expected a finite number", wavelengths_nm[i]),
+                reason: format!(
+                    "value at {} nm is {v}; expected a finite number",
+                    wavelengths_nm[i]
+                ),
             });
         }
         Ok(Spectrum {
@@ -158,15 +173,27 @@ impl Spectrum {
     }
 
     /// A spectrum on a regular grid.
-    pub fn from_shape(name: impl Into<String>, shape: &SpectralShape, values: Vec<f64>) -> Result<Self> {
+    pub fn from_shape(
+        name: impl Into<String>,
+        shape: &SpectralShape,
+        values: Vec<f64>,
+    ) -> Result<Self> {
         Spectrum::new(name, shape.wavelengths(), values)
     }
 
     /// Builds from a table: wavelengths from the first column, values from column `column`.
     pub fn from_table(table: &NumericTable, column: usize) -> Result<Self> {
-        let name = format!("{} ({})", table.source, table.header.get(column).map_or("?", |s| s));
+        let name = format!(
+            "{} ({})",
+            table.source,
+            table.header.get(column).map_or("?", |s| s)
+        );
         check_table_wavelengths(table)?;
-        Spectrum::new(name, table.columns[0].clone(), table.columns[column].clone())
+        Spectrum::new(
+            name,
+            table.columns[0].clone(),
+            table.columns[column].clone(),
+        )
     }
 
     /// Name given at construction.
@@ -424,7 +451,12 @@ impl MultiSpectrum {
             .iter()
             .map(|ch| interpolation::resample(&self.wavelengths_nm, ch, wavelengths_nm, method))
             .collect::<Result<Vec<_>>>()?;
-        MultiSpectrum::new(self.name.clone(), wavelengths_nm.to_vec(), self.labels.clone(), channels)
+        MultiSpectrum::new(
+            self.name.clone(),
+            wavelengths_nm.to_vec(),
+            self.labels.clone(),
+            channels,
+        )
     }
 
     /// colour's `align` onto `shape`.
@@ -467,7 +499,12 @@ mod tests {
         let w: Vec<f64> = (0..10).map(|i| 400.0 + 10.0 * i as f64).collect();
         let v: Vec<f64> = (0..10).map(|i| i as f64).collect();
         let s = Spectrum::new("s", w, v).unwrap();
-        let a = s.align(&SpectralShape::new(380.0, 500.0, 5.0).unwrap(), Interpolator::Default).unwrap();
+        let a = s
+            .align(
+                &SpectralShape::new(380.0, 500.0, 5.0).unwrap(),
+                Interpolator::Default,
+            )
+            .unwrap();
         assert_eq!(a.values()[0], 0.0);
         assert_eq!(*a.values().last().unwrap(), 9.0);
         assert!((a.values()[4] - 0.0).abs() < 1e-12); // 400 nm

@@ -6,9 +6,11 @@ use lumifit::colorimetry::cat::Cat;
 use lumifit::colorimetry::delta_e::{delta_e as delta_e_fn, DeltaEMethod};
 use lumifit::colorimetry::lab::{lab_to_lch, lab_to_xyz, lch_to_lab, xyz_to_lab};
 use lumifit::colorimetry::rgb::{rgb_to_xyz, xyz_to_rgb, RgbSpace};
-use lumifit::colorimetry::xyy::{xyy_to_xyz, xyz_to_xy, xyz_to_xyy};
 use lumifit::colorimetry::tristimulus::D65_XY;
-use lumifit::colorimetry::{illuminant_white, sd_to_xyz, Observer, StandardObserver, XyzMethod, XyzOperator};
+use lumifit::colorimetry::xyy::{xyy_to_xyz, xyz_to_xy, xyz_to_xyy};
+use lumifit::colorimetry::{
+    illuminant_white, sd_to_xyz, Observer, StandardObserver, XyzMethod, XyzOperator,
+};
 use lumifit::io::spectrum_csv;
 use serde::Serialize;
 

@@ -12,11 +12,15 @@ use lumifit::calib;
 use lumifit::colorimetry::cat::Cat;
 use lumifit::colorimetry::delta_e::{delta_e, DeltaEMethod};
 use lumifit::colorimetry::rgb::{xyz_to_rgb, RgbSpace};
-use lumifit::colorimetry::xyy::xyz_to_xy;
 use lumifit::colorimetry::tristimulus::D65_XY;
-use lumifit::colorimetry::{illuminant_white, sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod};
+use lumifit::colorimetry::xyy::xyz_to_xy;
+use lumifit::colorimetry::{
+    illuminant_white, sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod,
+};
 use lumifit::plot::{colorchecker_chart, SwatchPatch};
-use lumifit::preset::{read_material, write_preset, MaterialPreset, Provenance, ReflectanceSection};
+use lumifit::preset::{
+    read_material, write_preset, MaterialPreset, Provenance, ReflectanceSection,
+};
 use lumifit::spectrum::Spectrum;
 
 use super::emit;
@@ -42,15 +46,25 @@ fn hex(srgb: [f64; 3]) -> String {
 fn slug(name: &str) -> String {
     let s: String = name
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
         .collect();
-    s.split('_').filter(|p| !p.is_empty()).collect::<Vec<_>>().join("_")
+    s.split('_')
+        .filter(|p| !p.is_empty())
+        .collect::<Vec<_>>()
+        .join("_")
 }
 
 /// Runs the demo, writing into `args.out`.
 pub fn run(args: &DemoArgs) -> Result<()> {
     let out = &args.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating output directory {}", out.display()))?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("creating output directory {}", out.display()))?;
     let presets_dir = out.join("presets");
     std::fs::create_dir_all(&presets_dir)
         .with_context(|| format!("creating output directory {}", presets_dir.display()))?;
@@ -66,13 +80,25 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let mut rows = Vec::new();
     for ill_name in ILLUMINANTS {
         let illuminant = Illuminant::standard(ill_name)?;
-        let white = illuminant_white(observer, &illuminant, method, patches[0].wavelengths(), None)?;
+        let white = illuminant_white(
+            observer,
+            &illuminant,
+            method,
+            patches[0].wavelengths(),
+            None,
+        )?;
         let white_xy = xyz_to_xy(white.xyz, D65_XY);
         for (i, sd) in patches.iter().enumerate() {
             let t = sd_to_xyz(sd, observer, &illuminant, method, None)?;
             let lab = t.lab_relative_to(&white)?;
             // Rendered for an observer adapted to the illuminant: CAT02 from its white to sRGB's D65.
-            let srgb = xyz_to_rgb(t.xyz.map(|v| v / 100.0), white_xy, &srgb_space, Some(Cat::Cat02), true)?;
+            let srgb = xyz_to_rgb(
+                t.xyz.map(|v| v / 100.0),
+                white_xy,
+                &srgb_space,
+                Some(Cat::Cat02),
+                true,
+            )?;
             rows.push(PatchRow {
                 index: i + 1,
                 name: sd.name().to_string(),
@@ -138,12 +164,18 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let command = format!("lumifit demo --out {}", out.display());
     for (i, sd) in patches.iter().enumerate() {
         let preset = MaterialPreset {
-            reflectance: Some(ReflectanceSection::new(sd.wavelengths().to_vec(), sd.values().to_vec())),
+            reflectance: Some(ReflectanceSection::new(
+                sd.wavelengths().to_vec(),
+                sd.values().to_vec(),
+            )),
             ..MaterialPreset::new(
                 format!("ColorChecker N Ohta {:02} {}", i + 1, sd.name()),
                 Provenance::new(
                     &command,
-                    &[("calib/colorchecker_n_ohta.csv (embedded)", calib::COLORCHECKER_N_OHTA_CSV.as_bytes())],
+                    &[(
+                        "calib/colorchecker_n_ohta.csv (embedded)",
+                        calib::COLORCHECKER_N_OHTA_CSV.as_bytes(),
+                    )],
                 ),
             )
         };
@@ -151,16 +183,29 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         write_preset(&path, &preset)?;
         let back = read_material(&path)?;
         if back != preset {
-            anyhow::bail!("{}: the preset read back differs from the one written", path.display());
+            anyhow::bail!(
+                "{}: the preset read back differs from the one written",
+                path.display()
+            );
         }
     }
 
     print_summary(&rows[..n], out, &table_path, &chart_path, &presets_dir)
 }
 
-fn print_summary(d65: &[PatchRow], out: &Path, table: &Path, chart: &Path, presets: &Path) -> Result<()> {
-    let mut text = String::from("lumifit demo — ColorChecker N Ohta under D65 (CIE 1931 2°, ASTM E308)\n");
-    text.push_str(&format!("{:>3}  {:<21} {:>7} {:>7} {:>7}   {:>7}\n", "#", "patch", "L*", "a*", "b*", "sRGB"));
+fn print_summary(
+    d65: &[PatchRow],
+    out: &Path,
+    table: &Path,
+    chart: &Path,
+    presets: &Path,
+) -> Result<()> {
+    let mut text =
+        String::from("lumifit demo — ColorChecker N Ohta under D65 (CIE 1931 2°, ASTM E308)\n");
+    text.push_str(&format!(
+        "{:>3}  {:<21} {:>7} {:>7} {:>7}   {:>7}\n",
+        "#", "patch", "L*", "a*", "b*", "sRGB"
+    ));
     for r in d65 {
         text.push_str(&format!(
             "{:>3}  {:<21} {:>7.2} {:>7.2} {:>7.2}   {}\n",
@@ -174,7 +219,10 @@ fn print_summary(d65: &[PatchRow], out: &Path, table: &Path, chart: &Path, prese
     }
     text.push_str(&format!("\nwrote {}\n", table.display()));
     text.push_str(&format!("wrote {}\n", chart.display()));
-    text.push_str(&format!("wrote {} (24 material presets, each read back)\n", presets.display()));
+    text.push_str(&format!(
+        "wrote {} (24 material presets, each read back)\n",
+        presets.display()
+    ));
     text.push_str(&format!("all outputs in {}", out.display()));
     emit(&text)
 }
