@@ -336,3 +336,51 @@ fn demo_writes_table_chart_and_presets_that_validate() {
     let v = json(&lumifit(&["preset", "validate", first.to_str().unwrap()]));
     assert_eq!(v["valid"], true);
 }
+
+#[test]
+fn daylight_and_blackbody_illuminants_are_built_from_a_temperature() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("wavelength_nm,value\n");
+    for i in 0..=40 {
+        csv.push_str(&format!("{},0.5\n", 380 + 10 * i));
+    }
+    let p = write(dir.path(), "flat.csv", csv.as_bytes());
+    let d = json(&lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        p.to_str().unwrap(),
+        "--illuminant",
+        "daylight:6504",
+    ]));
+    // D6504 is close to D65: the white's chromaticity is near (0.3127, 0.3290).
+    let w = d["white_XYZ"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect::<Vec<_>>();
+    let s: f64 = w.iter().sum();
+    assert!(
+        (w[0] / s - 0.3127).abs() < 2e-3 && (w[1] / s - 0.3290).abs() < 2e-3,
+        "{w:?}"
+    );
+    let b = json(&lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        p.to_str().unwrap(),
+        "--illuminant",
+        "blackbody:2856",
+    ]));
+    assert!((b["XYZ"][1].as_f64().unwrap() - 50.0).abs() < 1e-9);
+    let o = lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        p.to_str().unwrap(),
+        "--illuminant",
+        "daylight:2000",
+    ]);
+    assert_rejected(&o, &["2000 K", "4000–25000 K"]);
+}

@@ -56,8 +56,9 @@ pub struct XyzArgs {
     /// Spectrum CSV with a header row `wavelength_nm,value`; `-` reads standard input.
     #[arg(long, value_name = "FILE.csv")]
     pub sd: PathBuf,
-    /// Illuminant: a CIE name (A, C, D50, D55, D60, D65, D75, E, FL1–FL12, HP1–HP5, LED-B1–LED-B5)
-    /// or a CSV file `wavelength_nm,value`.
+    /// Illuminant: a CIE name (A, C, D50, D55, D60, D65, D75, E, FL1–FL12, HP1–HP5, LED-B1–LED-B5),
+    /// `daylight:<CCT>` (CIE D-series, 4000–25000 K), `blackbody:<T>` (Planck), or a CSV file
+    /// `wavelength_nm,value`.
     #[arg(long, default_value = "D65", value_name = "NAME|FILE.csv")]
     pub illuminant: String,
     /// Standard observer.
@@ -77,7 +78,7 @@ pub struct TableArgs {
     /// Spectra CSV: `wavelength_nm` then one column per spectrum; `-` reads standard input.
     #[arg(long, value_name = "FILE.csv")]
     pub sds: PathBuf,
-    /// Illuminant: a CIE name or a CSV file `wavelength_nm,value`.
+    /// Illuminant: a CIE name, `daylight:<CCT>`, `blackbody:<T>` or a CSV file `wavelength_nm,value`.
     #[arg(long, default_value = "D65", value_name = "NAME|FILE.csv")]
     pub illuminant: String,
     /// Standard observer.
