@@ -6,18 +6,20 @@
 //! | layer | modules |
 //! |---|---|
 //! | L0 | [`error`], [`math`], [`table`], [`calib`] |
-//! | L1 | [`spectrum`], [`colorimetry`], [`fit`] |
-//! | L2 | [`fluor`], [`phosphor`] |
+//! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
+//! | L2 | [`fluor`], [`phosphor`], [`lvf`] |
 //! | L3 | [`io`], [`preset`], [`plot`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
 
 pub mod calib;
+pub mod capture;
 pub mod colorimetry;
 pub mod error;
 pub mod fit;
 pub mod fluor;
 pub mod io;
+pub mod lvf;
 pub mod math;
 pub mod phosphor;
 pub mod plot;

@@ -26,7 +26,13 @@ pub enum Command {
     Phos(crate::commands::phos::PhosCommand),
     /// Synthetic test data rendered by lumifit's own models.
     #[command(subcommand)]
-    Synth(crate::commands::synth::SynthCommand),
+    Synth(crate::commands::SynthCommands),
+    /// Photo series: inspect frames and extract region curves in relative radiance.
+    #[command(subcommand)]
+    Series(crate::commands::series::SeriesCommand),
+    /// Linear variable bandpass filter: wavelength calibration from lamp photos.
+    #[command(subcommand)]
+    Lvf(crate::commands::lvf::LvfCommand),
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),

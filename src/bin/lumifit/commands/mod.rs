@@ -4,9 +4,12 @@
 pub mod color;
 pub mod demo;
 pub mod fluor;
+pub mod lvf;
 pub mod phos;
 pub mod preset;
+pub mod series;
 pub mod synth;
+pub mod synth_lvf;
 
 use std::path::Path;
 
@@ -15,6 +18,17 @@ use lumifit::colorimetry::Illuminant;
 use lumifit::io::spectrum_csv;
 
 use crate::args::{Cli, ColorCommand, Command, PresetCommand};
+
+/// `lumifit synth …`: each domain contributes its own generators.
+#[derive(Debug, clap::Subcommand)]
+pub enum SynthCommands {
+    /// Phosphorescence generators.
+    #[command(flatten)]
+    Phos(synth::SynthCommand),
+    /// LVF capture generators.
+    #[command(flatten)]
+    Lvf(synth_lvf::LvfSynthCommand),
+}
 
 /// Dispatches a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
@@ -29,7 +43,10 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Fluor(c) => fluor::run(c),
         Command::Phos(c) => phos::run(c),
-        Command::Synth(c) => synth::run(c),
+        Command::Synth(SynthCommands::Phos(c)) => synth::run(c),
+        Command::Synth(SynthCommands::Lvf(c)) => synth_lvf::run(c),
+        Command::Series(c) => series::run(c),
+        Command::Lvf(c) => lvf::run(c),
         Command::Demo(a) => demo::run(&a),
     }
 }

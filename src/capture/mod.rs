@@ -1,0 +1,1 @@
+//! Captured frames, regions of interest and photo series in memory (no file system).
