@@ -29,12 +29,14 @@ use plotters::style::{register_font, FontStyle};
 use crate::error::{Error, Result};
 
 mod colorchecker;
+mod fluor;
 mod spectra;
 mod text;
 
 pub(crate) use text::{draw_text, fit_text, text_width, TextSpec};
 
 pub use colorchecker::{colorchecker_chart, SwatchPatch};
+pub use fluor::{fluor_chart, FluorChart};
 pub use spectra::spectra_chart;
 
 /// Font family name under which the embedded DejaVu Sans is registered.
