@@ -9,6 +9,10 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+pub mod exif;
+pub mod image;
+pub mod raw;
+pub mod series;
 pub mod spectrum_csv;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and

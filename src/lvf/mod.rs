@@ -1,1 +1,37 @@
-//! Linear variable bandpass filter (LVF): wavelength calibration from mercury-lamp photos (Nalbach et al. 2017, §4.2).
+//! Linear variable bandpass filter (LVF): wavelength calibration from mercury-lamp photos
+//! (Nalbach et al. 2017, §4.2 and Fig. 5).
+//!
+//! Seen through an LVF, each lamp line *l* of wavelength λ_l appears as a blob along the filter
+//! axis: at position *x* the filter passes wavelengths around λ(*x*) with a passband shape
+//! *g*, so camera channel *c* records
+//!
+//! ```text
+//! y_c(x) = b_c + s_c·u(x) + Σ_l A_{l,c} · g(λ_l − λ(x); FWHM),      u = (x − x_mid)/half_length
+//! ```
+//!
+//! (the line's power times the camera's sensitivity at λ_l is one amplitude A_{l,c} ≥ 0 per line
+//! and channel). With a ~25 nm passband neighbouring mercury lines (404.7/407.8/435.8 and
+//! 546.1/577.0/579.1 nm) merge into blobs whose peaks are pulled towards each other, so picking
+//! peaks ([`peaks::calibrate_peaks`], the paper's procedure, kept as a baseline) biases the map.
+//! [`fit::calibrate_whole_profile`] fits the whole profile instead: the map λ(x) (linear, or
+//! quadratic when the data justify it) and the FWHM are nonlinear parameters, the amplitudes and
+//! background are linear and solved by non-negative least squares for every trial of the
+//! nonlinear ones (variable projection, Golub & Pereyra 1973), and the start comes from a coarse
+//! grid search. Uncertainties come from the Jacobian of the projected residual.
+//!
+//! Units: positions in the input image's pixels (0 = first column/row, pixel centres at
+//! integers), wavelengths in nm. No colour-science counterpart.
+
+pub mod calibration;
+pub mod fit;
+pub mod lamp;
+pub mod peaks;
+pub mod profile;
+pub mod synth;
+
+pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
+pub use fit::{calibrate_whole_profile, FitOptions, MapChoice, Passband};
+pub use lamp::{Lamp, LampLine};
+pub use peaks::calibrate_peaks;
+pub use profile::{extract_profile, Axis, Profile};
+pub use synth::{render_lvf, LvfSynthSpec, LvfTruth};

@@ -1,13 +1,195 @@
-//! `lumifit` LVF calibration: being written.
+//! `lumifit lvf calibrate`: LVF position → wavelength map from a lamp photo.
 
-use anyhow::Result;
-use clap::Subcommand;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand, ValueEnum};
+use lumifit::capture::Roi;
+use lumifit::io::series::read_frame;
+use lumifit::lvf::fit::Direction;
+use lumifit::lvf::{
+    calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, FitOptions, Lamp, MapChoice,
+    Passband,
+};
+
+use super::emit;
 
 /// Subcommands (LVF calibration).
 #[derive(Debug, Subcommand)]
-pub enum LvfCommand {}
+pub enum LvfCommand {
+    /// Calibrate the position → wavelength map from a photo of a lamp through the LVF.
+    Calibrate(CalibrateArgs),
+}
+
+/// Filter axis.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum AxisArg {
+    /// Wavelength varies along columns.
+    X,
+    /// Wavelength varies along rows.
+    Y,
+}
+
+/// Calibration method.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MethodArg {
+    /// Fit the whole profile (default).
+    WholeProfile,
+    /// Naive peak picking + straight line (baseline).
+    Peaks,
+}
+
+/// Map degree.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MapArg {
+    /// Linear.
+    Linear,
+    /// Quadratic.
+    Quadratic,
+    /// Quadratic only if the data justify it.
+    Auto,
+}
+
+/// Direction of the wavelength gradient.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum DirectionArg {
+    /// From the colour channels.
+    Auto,
+    /// λ increases with px.
+    Increasing,
+    /// λ decreases with px.
+    Decreasing,
+}
+
+/// `lvf calibrate`.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Lamp photo (RAW, PNG, TIFF, EXR).
+    pub image: PathBuf,
+    /// ROI x,y,w,h in the image's own pixels (for RAW: the full-resolution image).
+    #[arg(long)]
+    pub roi: String,
+    /// Filter axis: x (along columns) or y (along rows).
+    #[arg(long, value_enum)]
+    pub axis: AxisArg,
+    /// Lamp: hg, cfl, or a CSV wavelength_nm[,relative_power].
+    #[arg(long, default_value = "hg")]
+    pub lamp: String,
+    /// Number of bands from 400 to 700 nm.
+    #[arg(long, default_value_t = 31)]
+    pub bands: usize,
+    /// Output JSON.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// PNG plot of profile, model, lines and residuals.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Method.
+    #[arg(long, value_enum, default_value = "whole-profile")]
+    pub method: MethodArg,
+    /// Map degree.
+    #[arg(long, value_enum, default_value = "linear")]
+    pub map: MapArg,
+    /// Passband: `gaussian` or a CSV offset_nm,transmission (measured shape).
+    #[arg(long, default_value = "gaussian")]
+    pub passband: String,
+    /// Starting FWHM of the passband (nm); also the assumed FWHM of the peaks method.
+    #[arg(long, default_value_t = 25.0)]
+    pub fwhm_guess: f64,
+    /// Which way wavelength runs along the axis.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub direction: DirectionArg,
+}
 
 /// Runs one of these subcommands.
 pub fn run(cmd: LvfCommand) -> Result<()> {
-    match cmd {}
+    match cmd {
+        LvfCommand::Calibrate(a) => calibrate(&a),
+    }
+}
+
+/// Resolves `--lamp`.
+pub fn resolve_lamp(arg: &str) -> Result<Lamp> {
+    match arg.to_ascii_lowercase().as_str() {
+        "hg" | "mercury" => Ok(Lamp::mercury()),
+        "cfl" => Ok(Lamp::cfl()),
+        _ => {
+            let path = std::path::Path::new(arg);
+            if !path.is_file() {
+                anyhow::bail!("--lamp: '{arg}' is neither hg, cfl nor an existing CSV file wavelength_nm[,relative_power]");
+            }
+            let (bytes, src) = lumifit::io::read_input(path)?;
+            let t = lumifit::table::parse_numeric_csv(&bytes, &src)?;
+            Ok(Lamp::from_table(&t)?)
+        }
+    }
+}
+
+fn calibrate(a: &CalibrateArgs) -> Result<()> {
+    if !(a.fwhm_guess.is_finite() && a.fwhm_guess > 1.0 && a.fwhm_guess < 200.0) {
+        anyhow::bail!("--fwhm-guess: {} nm; expected 1–200", a.fwhm_guess);
+    }
+    let lamp = resolve_lamp(&a.lamp)?;
+    let passband = if a.passband.eq_ignore_ascii_case("gaussian") {
+        Passband::Gaussian
+    } else {
+        let (bytes, src) = lumifit::io::read_input(std::path::Path::new(&a.passband))?;
+        let t = lumifit::table::parse_numeric_csv(&bytes, &src)?;
+        if t.columns.len() < 2 {
+            anyhow::bail!("--passband {src}: expected columns offset_nm,transmission");
+        }
+        Passband::measured(t.columns[0].clone(), t.columns[1].clone())
+            .with_context(|| format!("--passband {src}"))?
+    };
+    let roi = match Roi::parse_rect(&a.roi)? {
+        Roi::Rect { x, y, w, h } => [x, y, w, h],
+        Roi::Mask { .. } => unreachable!("parse_rect returns a rectangle"),
+    };
+    let (frame, info) = read_frame(&a.image)?;
+    for w in &info.warnings {
+        eprintln!("warning: {w}");
+    }
+    let axis = match a.axis {
+        AxisArg::X => Axis::X,
+        AxisArg::Y => Axis::Y,
+    };
+    let profile = extract_profile(&frame, roi, axis)?;
+    let opts = FitOptions {
+        map: match a.map {
+            MapArg::Linear => MapChoice::Linear,
+            MapArg::Quadratic => MapChoice::Quadratic,
+            MapArg::Auto => MapChoice::Auto,
+        },
+        passband,
+        fwhm_guess_nm: a.fwhm_guess,
+        direction: match a.direction {
+            DirectionArg::Auto => Direction::Auto,
+            DirectionArg::Increasing => Direction::Increasing,
+            DirectionArg::Decreasing => Direction::Decreasing,
+        },
+        n_bands: a.bands,
+    };
+    let t = std::time::Instant::now();
+    let cal = match a.method {
+        MethodArg::WholeProfile => calibrate_whole_profile(&profile, &lamp, &opts),
+        MethodArg::Peaks => calibrate_peaks(&profile, &lamp, &opts),
+    }
+    .with_context(|| format!("calibrating {}", a.image.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    let mut json = serde_json::to_value(&cal)?;
+    json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
+    lumifit::io::atomic_write(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    if let Some(p) = &a.plot {
+        lumifit::plot::lvf_chart(p, &cal)?;
+    }
+    emit(&serde_json::to_string_pretty(&serde_json::json!({
+        "out": a.out.display().to_string(),
+        "method": cal.method,
+        "map": cal.map.coefficients,
+        "fwhm_nm": cal.fwhm_nm,
+        "rms_residual_nm": cal.rms_residual_nm,
+        "sigma_nm_at_400": cal.sigma_nm_at_400,
+        "sigma_nm_at_700": cal.sigma_nm_at_700,
+        "fit_seconds": seconds,
+    }))?)
 }

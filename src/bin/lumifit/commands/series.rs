@@ -1,13 +1,201 @@
-//! `lumifit` photo series: being written.
+//! `lumifit series inspect|extract`: photo series (manifest CSV or folder) to per-frame metadata
+//! and region curves in relative radiance.
 
-use anyhow::Result;
-use clap::Subcommand;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use lumifit::capture::{parse_datetime, Roi};
+use lumifit::io::series::{load_series, read_frame, LoadedSeries, SeriesOptions};
+
+use super::emit;
 
 /// Subcommands (photo series).
 #[derive(Debug, Subcommand)]
-pub enum SeriesCommand {}
+pub enum SeriesCommand {
+    /// One row per frame: file, time, exposure, ISO, f-number, black/white level, saturated fraction.
+    Inspect(InspectArgs),
+    /// Region curve in relative radiance: time_s,r,g,b,r_std,g_std,b_std,n_pixels,n_saturated.
+    Extract(ExtractArgs),
+}
+
+/// Where the series comes from.
+#[derive(Debug, Args)]
+pub struct SeriesArgs {
+    /// Manifest CSV (file,time_s[,exposure_s,iso,f_number]) or a folder of frames (ordered by EXIF capture time).
+    pub series: PathBuf,
+    /// Time 0 for a folder series, as a capture time `YYYY:MM:DD HH:MM:SS[.sss]` (default: first frame).
+    #[arg(long)]
+    pub t0: Option<String>,
+    /// Dark frame(s), averaged and subtracted from every frame (repeat the flag for several).
+    #[arg(long)]
+    pub dark: Vec<PathBuf>,
+}
+
+/// `series inspect`.
+#[derive(Debug, Args)]
+pub struct InspectArgs {
+    #[command(flatten)]
+    pub series: SeriesArgs,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `series extract`.
+#[derive(Debug, Args)]
+pub struct ExtractArgs {
+    #[command(flatten)]
+    pub series: SeriesArgs,
+    /// Rectangle x,y,w,h in the source image's pixels (for RAW: the full-resolution image).
+    #[arg(long, conflicts_with = "mask", required_unless_present = "mask")]
+    pub roi: Option<String>,
+    /// Mask image of the source image's size; non-zero pixels are inside.
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
+    /// Output CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+}
 
 /// Runs one of these subcommands.
 pub fn run(cmd: SeriesCommand) -> Result<()> {
-    match cmd {}
+    match cmd {
+        SeriesCommand::Inspect(a) => inspect(&a),
+        SeriesCommand::Extract(a) => extract(&a),
+    }
+}
+
+fn load(a: &SeriesArgs) -> Result<LoadedSeries> {
+    let t0_s = match &a.t0 {
+        None => None,
+        Some(s) => Some(parse_datetime(s).ok_or_else(|| {
+            anyhow::anyhow!("--t0: '{s}' is not a capture time; expected YYYY:MM:DD HH:MM:SS[.sss]")
+        })?),
+    };
+    let options = SeriesOptions {
+        t0_s,
+        darks: a.dark.clone(),
+    };
+    let n = if a.series.is_dir() {
+        std::fs::read_dir(&a.series).map(|d| d.count()).unwrap_or(0)
+    } else {
+        std::fs::read_to_string(&a.series)
+            .map(|s| s.lines().count().saturating_sub(1))
+            .unwrap_or(0)
+    };
+    let bar = indicatif::ProgressBar::new(n as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_prefix("decoding");
+    let loaded = load_series(&a.series, &options, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let loaded = loaded.with_context(|| format!("loading series {}", a.series.display()))?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(loaded)
+}
+
+fn inspect(a: &InspectArgs) -> Result<()> {
+    let loaded = load(&a.series)?;
+    let rows: Vec<serde_json::Value> = loaded
+        .series
+        .frames()
+        .iter()
+        .map(|f| {
+            serde_json::json!({
+                "file": f.info.file,
+                "time_s": f.time_s,
+                "exposure_s": f.exposure.exposure_s,
+                "iso": f.exposure.iso,
+                "f_number": f.exposure.f_number,
+                "capture_time": f.info.capture_time,
+                "encoding": f.info.encoding,
+                "size": [f.frame.source_size().0, f.frame.source_size().1],
+                "black_level": f.info.black_level,
+                "white_level": f.info.white_level,
+                "white_level_measured": f.info.white_level_measured,
+                "saturated_fraction": f.frame.saturated_fraction(),
+            })
+        })
+        .collect();
+    if a.json {
+        return emit(&serde_json::to_string_pretty(&rows)?);
+    }
+    let mut out =
+        String::from("file\ttime_s\texposure_s\tiso\tf_number\tblack\twhite\tsaturated_fraction\n");
+    for f in loaded.series.frames() {
+        let black = f
+            .info
+            .black_level
+            .map(|b| format!("{}", b[0]))
+            .unwrap_or_else(|| "-".into());
+        let white = f
+            .info
+            .white_level
+            .map(|w| format!("{w}"))
+            .unwrap_or_else(|| "-".into());
+        out.push_str(&format!(
+            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.6}\n",
+            f.info.file,
+            f.time_s,
+            f.exposure.exposure_s,
+            f.exposure.iso,
+            f.exposure.f_number,
+            black,
+            white,
+            f.frame.saturated_fraction()
+        ));
+    }
+    emit(out.trim_end())
+}
+
+fn read_mask(path: &Path) -> Result<Roi> {
+    let (frame, _) = read_frame(path)?;
+    let inside = frame
+        .data()
+        .chunks(3)
+        .map(|p| p.iter().any(|v| *v > 0.0))
+        .collect();
+    Ok(Roi::Mask {
+        width: frame.width,
+        height: frame.height,
+        inside,
+        name: path.display().to_string(),
+    })
+}
+
+fn extract(a: &ExtractArgs) -> Result<()> {
+    let roi = match (&a.roi, &a.mask) {
+        (Some(r), _) => Roi::parse_rect(r)?,
+        (None, Some(m)) => read_mask(m)?,
+        (None, None) => anyhow::bail!("give --roi x,y,w,h or --mask FILE"),
+    };
+    let loaded = load(&a.series)?;
+    let curve = loaded.series.extract(&roi)?;
+    let mut csv = String::from("time_s,r,g,b,r_std,g_std,b_std,n_pixels,n_saturated\n");
+    for s in &curve {
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            s.time_s,
+            s.mean[0],
+            s.mean[1],
+            s.mean[2],
+            s.std[0],
+            s.std[1],
+            s.std[2],
+            s.n_pixels,
+            s.n_saturated
+        ));
+    }
+    lumifit::io::atomic_write(&a.out, csv.as_bytes())?;
+    emit(&serde_json::to_string_pretty(&serde_json::json!({
+        "out": a.out.display().to_string(),
+        "frames": curve.len(),
+        "roi": roi.describe(),
+    }))?)
 }

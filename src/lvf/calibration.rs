@@ -1,0 +1,222 @@
+//! The calibration result (`lvf.json`): map, passband width, line residuals and bands.
+//!
+//! Contract read by other tools (more fields may be added):
+//! `{"axis":"x","roi":[x,y,w,h],"map":{"kind":"linear","coefficients":[c0,c1]},"fwhm_nm":…,
+//! "rms_residual_nm":…,"sigma_nm_at_400":…,"sigma_nm_at_700":…,"bands":[{"nm":…,"px":…,"width_px":…},…]}`
+//! with λ(px) = Σ coefficients[i]·pxⁱ and px in the input image's own pixels.
+
+use crate::error::{Error, Result};
+use crate::lvf::profile::Axis;
+
+/// Polynomial degree of the position → wavelength map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MapKind {
+    /// λ = c0 + c1·px.
+    Linear,
+    /// λ = c0 + c1·px + c2·px².
+    Quadratic,
+}
+
+/// λ(px) = Σ coefficients[i]·pxⁱ with the coefficients' covariance.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MapModel {
+    /// Degree.
+    pub kind: MapKind,
+    /// Coefficients c0, c1[, c2] (nm, nm/px, nm/px²).
+    pub coefficients: Vec<f64>,
+    /// Covariance of the coefficients.
+    pub covariance: Vec<Vec<f64>>,
+}
+
+impl MapModel {
+    /// λ at `px`.
+    pub fn eval(&self, px: f64) -> f64 {
+        self.coefficients
+            .iter()
+            .rev()
+            .fold(0.0, |acc, c| acc * px + c)
+    }
+
+    /// dλ/dpx at `px`.
+    pub fn slope(&self, px: f64) -> f64 {
+        self.coefficients
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(i, c)| i as f64 * c * px.powi(i as i32 - 1))
+            .sum()
+    }
+
+    /// Standard uncertainty of λ(px) from the coefficients' covariance.
+    pub fn sigma_at(&self, px: f64) -> f64 {
+        let v: Vec<f64> = (0..self.coefficients.len())
+            .map(|i| px.powi(i as i32))
+            .collect();
+        let mut s = 0.0;
+        for (i, vi) in v.iter().enumerate() {
+            for (j, vj) in v.iter().enumerate() {
+                s += vi * self.covariance[i][j] * vj;
+            }
+        }
+        s.max(0.0).sqrt()
+    }
+
+    /// Position where λ = `nm`, searched by Newton's method from the linear solution.
+    pub fn inverse(&self, nm: f64) -> Option<f64> {
+        let c = &self.coefficients;
+        if c.len() < 2 || c[1] == 0.0 {
+            return None;
+        }
+        let mut px = (nm - c[0]) / c[1];
+        for _ in 0..50 {
+            let d = self.slope(px);
+            if d == 0.0 || !d.is_finite() {
+                return None;
+            }
+            let step = (self.eval(px) - nm) / d;
+            px -= step;
+            if step.abs() < 1e-10 {
+                break;
+            }
+        }
+        (px.is_finite() && (self.eval(px) - nm).abs() < 1e-6).then_some(px)
+    }
+}
+
+/// A lamp line as calibrated.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LineReport {
+    /// Line wavelength (nm).
+    pub nm: f64,
+    /// Position where the map puts it (px).
+    pub px: f64,
+    /// Map wavelength at the line's observed position minus the line's wavelength (nm).
+    pub residual_nm: f64,
+    /// Fitted amplitude per camera channel (linear units); zeros for the peaks method.
+    pub amplitude: [f64; 3],
+}
+
+/// One averaging band.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Band {
+    /// Centre wavelength (nm).
+    pub nm: f64,
+    /// Centre along the axis (px, input image's pixels).
+    pub px: f64,
+    /// Width to average over (px): the band spacing in nm divided by |dλ/dpx|.
+    pub width_px: f64,
+    /// Whether the band centre lies inside the ROI.
+    pub in_roi: bool,
+}
+
+/// How the map degree was chosen.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MapSelection {
+    /// What was asked: `linear`, `quadratic` or `auto`.
+    pub requested: String,
+    /// F statistic of quadratic versus linear (auto only).
+    pub f_statistic: Option<f64>,
+    /// Quadratic coefficient over its standard error (auto only).
+    pub quadratic_t: Option<f64>,
+    /// Why the chosen degree won.
+    pub reason: String,
+}
+
+/// Profile, model and residuals for plotting.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ProfileCurves {
+    /// Positions (px).
+    pub px: Vec<f64>,
+    /// Measured profile per channel.
+    pub data: [Vec<f64>; 3],
+    /// Model per channel.
+    pub model: [Vec<f64>; 3],
+}
+
+/// An LVF calibration (`lvf.json`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LvfCalibration {
+    /// Schema tag.
+    pub schema: &'static str,
+    /// `whole-profile` or `peaks`.
+    pub method: String,
+    /// The image calibrated.
+    pub source: String,
+    /// Filter axis.
+    pub axis: Axis,
+    /// ROI `[x, y, w, h]`, input image's pixels.
+    pub roi: [usize; 4],
+    /// Lamp name.
+    pub lamp: String,
+    /// Position → wavelength map.
+    pub map: MapModel,
+    /// Fitted passband FWHM (nm); for peaks the assumed value.
+    pub fwhm_nm: f64,
+    /// Standard uncertainty of the FWHM (nm).
+    pub fwhm_sigma_nm: f64,
+    /// RMS of the line residuals (nm).
+    pub rms_residual_nm: f64,
+    /// Standard uncertainty of λ at the 400 nm position (nm).
+    pub sigma_nm_at_400: f64,
+    /// Standard uncertainty of λ at the 700 nm position (nm).
+    pub sigma_nm_at_700: f64,
+    /// Lines inside the calibrated range.
+    pub lines: Vec<LineReport>,
+    /// Bands equidistant in wavelength from 400 to 700 nm.
+    pub bands: Vec<Band>,
+    /// How the map degree was chosen.
+    pub map_selection: MapSelection,
+    /// Whether λ increases with px.
+    pub wavelength_increases_with_px: bool,
+    /// Fit diagnostics: iterations, residual RMS of the profile, samples.
+    pub diagnostics: serde_json::Value,
+    /// Profile and model for plotting (not serialised).
+    #[serde(skip)]
+    pub curves: ProfileCurves,
+}
+
+impl LvfCalibration {
+    /// Fills `bands`, `sigma_nm_at_400/700` from the map: `n` bands from 400 to 700 nm.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] when `n` < 2 or the map cannot be inverted at a band.
+    pub fn set_bands(&mut self, n: usize) -> Result<()> {
+        if n < 2 {
+            return Err(Error::invalid(
+                "--bands",
+                format!("{n}: expected at least 2"),
+            ));
+        }
+        let spacing = 300.0 / (n - 1) as f64;
+        let (lo, hi) = match self.axis {
+            Axis::X => (
+                self.roi[0] as f64 - 0.5,
+                (self.roi[0] + self.roi[2]) as f64 - 0.5,
+            ),
+            Axis::Y => (
+                self.roi[1] as f64 - 0.5,
+                (self.roi[1] + self.roi[3]) as f64 - 0.5,
+            ),
+        };
+        let mut bands = Vec::with_capacity(n);
+        for k in 0..n {
+            let nm = 400.0 + spacing * k as f64;
+            let px = self.map.inverse(nm).ok_or_else(|| Error::Numerical {
+                what: "LVF band positions".into(),
+                reason: format!("the fitted map does not reach {nm} nm monotonically"),
+            })?;
+            let slope = self.map.slope(px).abs();
+            bands.push(Band {
+                nm,
+                px,
+                width_px: spacing / slope.max(1e-12),
+                in_roi: px >= lo && px <= hi,
+            });
+        }
+        self.sigma_nm_at_400 = self.map.sigma_at(bands[0].px);
+        self.sigma_nm_at_700 = self.map.sigma_at(bands[n - 1].px);
+        self.bands = bands;
+        Ok(())
+    }
+}
