@@ -46,8 +46,8 @@ fn sixteen_bit_rewrites_decode_with_the_documented_black_and_white_levels() {
             "{sw}×{sh}"
         );
         let black = info.black_level.expect("RAW reports black levels");
-        for c in 0..3 {
-            assert_eq!(black[c], BLACK, "black level of colour {c}");
+        for (c, b) in black.iter().enumerate().take(3) {
+            assert_eq!(*b, BLACK, "black level of colour {c}");
         }
         assert_eq!(info.white_level, Some(WHITE));
         // Linear values live in [−black/range, 1]: the chart is neither clipped nor negative on average.
