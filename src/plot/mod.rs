@@ -31,6 +31,7 @@ use crate::error::{Error, Result};
 mod colorchecker;
 mod fluor;
 mod lvf;
+mod phosphor;
 mod spectra;
 mod text;
 
@@ -39,6 +40,7 @@ pub(crate) use text::{draw_text, fit_text, text_width, TextSpec};
 pub use colorchecker::{colorchecker_chart, SwatchPatch};
 pub use fluor::{fluor_chart, FluorChart};
 pub use lvf::lvf_chart;
+pub use phosphor::decay_chart;
 pub use spectra::spectra_chart;
 
 /// Font family name under which the embedded DejaVu Sans is registered.

@@ -1,0 +1,384 @@
+//! Variable projection (Golub & Pereyra 1973) with non-negative linear coefficients, solved by
+//! Levenberg–Marquardt on the projected residual with Kaufman's (1975) Jacobian.
+//!
+//! The model is `Y ≈ Φ(θ) C`: Y holds `n_rhs` right-hand sides of m rows each (for example the
+//! R, G, B channels of one curve), Φ(θ) is an m × n basis depending on the nonlinear parameters
+//! θ, and C (n × n_rhs) holds linear coefficients. For each θ the coefficients are solved exactly
+//! by [`nnls`](super::nnls::nnls) (columns may be marked free), so the outer solver sees only
+//!
+//! `f(θ) = ½ Σ_rhs ‖W^{1/2} (y_rhs − Φ(θ) c*_rhs(θ))‖²`.
+//!
+//! Structure assumed (it keeps the Jacobian cheap): every basis column depends on at most one
+//! nonlinear parameter, given by [`SeparableModel::column_param`], with the derivative supplied by
+//! the model. With the passive set P of the NNLS solution held fixed, Kaufman's Jacobian column
+//! for θ_p is `−P⊥_{Φ_P} Σ_{j: param(j)=p} ∂φ_j/∂θ_p · c_j`.
+//!
+//! The iteration stops with a [`Termination`] reason recorded as data; a fit that runs out of
+//! iterations is still a report.
+
+// Index loops mirror the matrix notation of the maths; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use super::nnls::nnls;
+use super::qr::Qr;
+
+/// A separable model: the basis Φ(θ) and its column derivatives. Knows nothing about the data.
+pub trait SeparableModel {
+    /// Number of rows m of the basis (samples per right-hand side).
+    fn n_rows(&self) -> usize;
+    /// Number of nonlinear parameters.
+    fn n_params(&self) -> usize;
+    /// Number of basis columns n.
+    fn n_cols(&self) -> usize;
+    /// The nonlinear parameter column `col` depends on, if any.
+    fn column_param(&self, col: usize) -> Option<usize>;
+    /// Whether column `col`'s coefficients are unconstrained (otherwise ≥ 0).
+    fn column_free(&self, col: usize) -> bool;
+    /// Fills `basis` and `dbasis` (both m × n column-major): `dbasis[:, j] = ∂φ_j/∂θ_{param(j)}`
+    /// (zero for columns without a parameter).
+    fn eval(&self, theta: &[f64], basis: &mut [f64], dbasis: &mut [f64]);
+}
+
+/// Why the iteration stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Termination {
+    /// The relative reduction of the cost fell below `ftol`.
+    CostConverged,
+    /// The step fell below `xtol` relative to the parameters.
+    StepConverged,
+    /// The projected gradient vanished (within `gtol`).
+    GradientConverged,
+    /// `max_iter` iterations were used.
+    MaxIterations,
+    /// The damping grew without finding a reducing step.
+    NoProgress,
+    /// The cost or model became non-finite.
+    NonFinite,
+}
+
+impl Termination {
+    /// True for the converged reasons.
+    pub fn converged(self) -> bool {
+        matches!(
+            self,
+            Termination::CostConverged
+                | Termination::StepConverged
+                | Termination::GradientConverged
+        )
+    }
+}
+
+/// Stopping rules and limits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolverOptions {
+    /// Maximum number of accepted-or-rejected iterations.
+    pub max_iter: usize,
+    /// Relative cost reduction below which the fit is converged.
+    pub ftol: f64,
+    /// Relative step size below which the fit is converged.
+    pub xtol: f64,
+    /// Gradient size (cosine between residual and Jacobian columns) below which it is converged.
+    pub gtol: f64,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        SolverOptions {
+            max_iter: 200,
+            ftol: 1e-12,
+            xtol: 1e-10,
+            gtol: 1e-10,
+        }
+    }
+}
+
+/// The data: `n_rhs` right-hand sides of m rows, stored rhs after rhs, and optional per-row
+/// square-root weights (1/σ).
+#[derive(Debug, Clone, Copy)]
+pub struct SeparableData<'a> {
+    /// m × n_rhs values, right-hand side after right-hand side.
+    pub y: &'a [f64],
+    /// Number of right-hand sides.
+    pub n_rhs: usize,
+    /// Per-row √weight (1/σ), shared by all right-hand sides; `None` for unit weights.
+    pub sqrt_w: Option<&'a [f64]>,
+}
+
+/// Result of [`solve_separable`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeparableFit {
+    /// Nonlinear parameters at the end.
+    pub theta: Vec<f64>,
+    /// Linear coefficients, n × n_rhs (column after column per right-hand side).
+    pub coeffs: Vec<f64>,
+    /// Weighted residual sum of squares (2 × cost).
+    pub rss: f64,
+    /// Iterations used.
+    pub iterations: usize,
+    /// Why it stopped.
+    pub termination: Termination,
+}
+
+/// Reusable buffers of one evaluation point.
+#[derive(Debug, Clone, Default)]
+struct Point {
+    basis: Vec<f64>,
+    dbasis: Vec<f64>,
+    coeffs: Vec<f64>,
+    passive: Vec<bool>,
+    resid: Vec<f64>,
+    rss: f64,
+}
+
+struct Evaluator<'m, 'd, M: SeparableModel> {
+    model: &'m M,
+    data: SeparableData<'d>,
+    m: usize,
+    n: usize,
+    free: Vec<bool>,
+    wy: Vec<f64>,
+}
+
+impl<M: SeparableModel> Evaluator<'_, '_, M> {
+    fn eval(&self, theta: &[f64], pt: &mut Point) -> bool {
+        let (m, n) = (self.m, self.n);
+        pt.basis.resize(m * n, 0.0);
+        pt.dbasis.resize(m * n, 0.0);
+        self.model.eval(theta, &mut pt.basis, &mut pt.dbasis);
+        if let Some(w) = self.data.sqrt_w {
+            for j in 0..n {
+                for i in 0..m {
+                    pt.basis[j * m + i] *= w[i];
+                    pt.dbasis[j * m + i] *= w[i];
+                }
+            }
+        }
+        if pt.basis.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        pt.coeffs.clear();
+        pt.passive.clear();
+        pt.resid.clear();
+        pt.rss = 0.0;
+        for r in 0..self.data.n_rhs {
+            let y = &self.wy[r * m..(r + 1) * m];
+            let s = nnls(&pt.basis, m, n, y, &self.free);
+            pt.coeffs.extend_from_slice(&s.x);
+            pt.passive.extend_from_slice(&s.passive);
+            for i in 0..m {
+                let mut f = 0.0;
+                for j in 0..n {
+                    f += pt.basis[j * m + i] * s.x[j];
+                }
+                pt.resid.push(y[i] - f);
+            }
+            pt.rss += s.rss;
+        }
+        pt.rss.is_finite()
+    }
+
+    /// Kaufman Jacobian of the stacked residual (m·n_rhs × p), column-major.
+    fn jacobian(&self, pt: &Point, p: usize, jac: &mut Vec<f64>) {
+        let (m, n) = (self.m, self.n);
+        let rows = m * self.data.n_rhs;
+        jac.clear();
+        jac.resize(rows * p, 0.0);
+        let mut sub = Vec::with_capacity(m * n);
+        let mut v = vec![0.0; m];
+        for r in 0..self.data.n_rhs {
+            let c = &pt.coeffs[r * n..(r + 1) * n];
+            let pas = &pt.passive[r * n..(r + 1) * n];
+            sub.clear();
+            let mut k = 0;
+            for j in 0..n {
+                if pas[j] {
+                    sub.extend_from_slice(&pt.basis[j * m..(j + 1) * m]);
+                    k += 1;
+                }
+            }
+            let qr = Qr::new(&sub, m, k);
+            for q in 0..p {
+                v.iter_mut().for_each(|x| *x = 0.0);
+                let mut any = false;
+                for j in 0..n {
+                    if self.model.column_param(j) == Some(q) && c[j] != 0.0 {
+                        any = true;
+                        for i in 0..m {
+                            v[i] -= pt.dbasis[j * m + i] * c[j];
+                        }
+                    }
+                }
+                if any {
+                    if k > 0 {
+                        qr.project_out(&mut v);
+                    }
+                    jac[q * rows + r * m..q * rows + (r + 1) * m].copy_from_slice(&v);
+                }
+            }
+        }
+    }
+}
+
+/// Solves `min_θ f(θ)` from `theta0` (see the module docs).
+///
+/// Never fails: non-finite starts or models end with [`Termination::NonFinite`] and the start
+/// returned as is (with infinite RSS when it could not be evaluated).
+pub fn solve_separable<M: SeparableModel>(
+    model: &M,
+    data: SeparableData<'_>,
+    theta0: &[f64],
+    opts: &SolverOptions,
+) -> SeparableFit {
+    let m = model.n_rows();
+    let n = model.n_cols();
+    let p = model.n_params();
+    let mut wy = data.y[..m * data.n_rhs].to_vec();
+    if let Some(w) = data.sqrt_w {
+        for r in 0..data.n_rhs {
+            for i in 0..m {
+                wy[r * m + i] *= w[i];
+            }
+        }
+    }
+    let ev = Evaluator {
+        model,
+        data,
+        m,
+        n,
+        free: (0..n).map(|j| model.column_free(j)).collect(),
+        wy,
+    };
+    let mut theta = theta0.to_vec();
+    let mut cur = Point::default();
+    if !ev.eval(&theta, &mut cur) {
+        return SeparableFit {
+            theta,
+            coeffs: vec![0.0; n * data.n_rhs],
+            rss: f64::INFINITY,
+            iterations: 0,
+            termination: Termination::NonFinite,
+        };
+    }
+    let rows = m * data.n_rhs;
+    let mut trial = Point::default();
+    let mut jac = Vec::new();
+    let mut mu = 0.0_f64;
+    let mut nu = 2.0;
+    let mut iterations = 0;
+    let mut termination = Termination::MaxIterations;
+    let mut need_jac = true;
+    let mut qr = Qr::default();
+    let mut qtr = vec![0.0; rows];
+    let mut g = vec![0.0; p];
+    let mut diag = vec![0.0_f64; p];
+    let mut step = vec![0.0; p];
+    let mut trial_theta = vec![0.0; p];
+    let mut aug = Vec::new();
+    while iterations < opts.max_iter {
+        iterations += 1;
+        if need_jac {
+            ev.jacobian(&cur, p, &mut jac);
+            qr.factor(&jac, rows, p);
+            qtr.copy_from_slice(&cur.resid);
+            qr.qt_mul(&mut qtr);
+            // gradient g = Jᵀ r and column norms
+            let rnorm = cur.rss.sqrt();
+            let mut gmax = 0.0_f64;
+            for q in 0..p {
+                let col = &jac[q * rows..(q + 1) * rows];
+                g[q] = col.iter().zip(&cur.resid).map(|(a, b)| a * b).sum();
+                let cn = col.iter().map(|v| v * v).sum::<f64>().sqrt();
+                diag[q] = diag[q].max(cn);
+                if cn > 0.0 && rnorm > 0.0 {
+                    gmax = gmax.max(g[q].abs() / (cn * rnorm));
+                }
+            }
+            if gmax <= opts.gtol || cur.rss == 0.0 {
+                termination = Termination::GradientConverged;
+                break;
+            }
+            if mu == 0.0 {
+                let dmax = diag.iter().fold(0.0_f64, |a, b| a.max(*b));
+                mu = 1e-3 * dmax * dmax;
+            }
+            need_jac = false;
+        }
+        // LM step: min ‖[R; √μ D] δ + [Qᵀr; 0]‖ (R from the QR of J). The residual is y − f and
+        // J = ∂r/∂θ, so the Gauss–Newton step solves J δ ≈ −r.
+        aug.clear();
+        aug.resize(2 * p * p, 0.0);
+        let mut rhs = vec![0.0; 2 * p];
+        for j in 0..p {
+            for i in 0..=j {
+                aug[j * 2 * p + i] = qr.r(i, j);
+            }
+            let d = if diag[j] > 0.0 { diag[j] } else { 1.0 };
+            aug[j * 2 * p + p + j] = mu.sqrt() * d;
+            rhs[j] = -qtr[j];
+        }
+        let small = Qr::new(&aug, 2 * p, p);
+        small.qt_mul(&mut rhs);
+        small.solve_r(&rhs, &mut step);
+        for q in 0..p {
+            trial_theta[q] = theta[q] + step[q];
+        }
+        let ok = ev.eval(&trial_theta, &mut trial);
+        // predicted reduction of ½‖r‖²: −gᵀδ·... computed from the linear model.
+        let mut lin = qtr[..p].to_vec();
+        for i in 0..p {
+            for j in i..p {
+                lin[i] += qr.r(i, j) * step[j];
+            }
+        }
+        let pred = 0.5
+            * (qtr[..p].iter().map(|v| v * v).sum::<f64>()
+                - lin.iter().map(|v| v * v).sum::<f64>());
+        let actual = 0.5 * (cur.rss - trial.rss);
+        if ok && trial.rss.is_finite() && actual > 0.0 {
+            let rho = if pred > 0.0 { actual / pred } else { 1.0 };
+            let rel_cost = (cur.rss - trial.rss) / cur.rss.max(f64::MIN_POSITIVE);
+            let step_norm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let theta_norm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
+            theta.copy_from_slice(&trial_theta);
+            std::mem::swap(&mut cur, &mut trial);
+            need_jac = true;
+            mu *= (1.0_f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+            nu = 2.0;
+            // MINPACK's rule: actual and predicted relative reductions both tiny
+            if rel_cost <= opts.ftol && 2.0 * pred / cur.rss.max(f64::MIN_POSITIVE) <= opts.ftol {
+                termination = Termination::CostConverged;
+                break;
+            }
+            if step_norm <= opts.xtol * (theta_norm + opts.xtol) {
+                termination = Termination::StepConverged;
+                break;
+            }
+        } else {
+            if !ok && !trial.rss.is_finite() && mu > 1e300 {
+                termination = Termination::NonFinite;
+                break;
+            }
+            let step_norm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let theta_norm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if ok && step_norm <= opts.xtol * (theta_norm + opts.xtol) {
+                termination = Termination::StepConverged;
+                break;
+            }
+            mu *= nu;
+            nu *= 2.0;
+            if !mu.is_finite() || mu > 1e300 {
+                termination = Termination::NoProgress;
+                break;
+            }
+        }
+    }
+    SeparableFit {
+        theta,
+        coeffs: cur.coeffs,
+        rss: cur.rss,
+        iterations,
+        termination,
+    }
+}

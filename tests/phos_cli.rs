@@ -1,0 +1,180 @@
+//! `lumifit phos` and `lumifit synth phos-decay` as a user runs them: round trip through files,
+//! and bad input rejected with exit code 2 and a message naming the file and the line.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lumifit(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lumifit"))
+        .args(args)
+        .output()
+        .expect("the lumifit binary runs")
+}
+
+fn assert_rejected(o: &Output, fragments: &[&str]) {
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "expected exit code 2, stderr: {e}"
+    );
+    assert!(!e.contains("panicked"), "panic: {e}");
+    for f in fragments {
+        assert!(e.contains(f), "stderr lacks '{f}': {e}");
+    }
+}
+
+fn p(dir: &Path, name: &str) -> String {
+    dir.join(name).to_string_lossy().to_string()
+}
+
+#[test]
+fn synth_then_fit_decay_writes_a_preset_a_plot_and_a_batch_csv() {
+    let d = tempfile::tempdir().unwrap();
+    let out = p(d.path(), "synth");
+    let o = lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        "green_paint",
+        "--seed",
+        "3",
+        "--curve-only",
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let curve = p(d.path(), "synth/curve.csv");
+    let json = p(d.path(), "m.json");
+    let png = p(d.path(), "m.png");
+    let o = lumifit(&["phos", "fit-decay", &curve, "--out", &json, "--plot", &png]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let k = v["phosphorescence"]["states"][0]["k_r_per_s"]
+        .as_f64()
+        .unwrap();
+    assert!((k / 0.227 - 1.0).abs() < 0.05, "k = {k}");
+    assert_eq!(v["phosphorescence"]["bands"], "rgb");
+    assert!(Path::new(&png).exists());
+    // batch: two copies of the curve under two ids
+    let text = std::fs::read_to_string(&curve).unwrap();
+    let mut batch = String::from("id,time_s,r,g,b\n");
+    for id in ["a", "b"] {
+        for l in text.lines().skip(1) {
+            let f: Vec<&str> = l.split(',').collect();
+            batch.push_str(&format!("{id},{},{},{},{}\n", f[0], f[1], f[2], f[3]));
+        }
+    }
+    let bpath = p(d.path(), "batch.csv");
+    std::fs::write(&bpath, batch).unwrap();
+    let fits = p(d.path(), "fits.csv");
+    let o = lumifit(&["phos", "fit-decay", "--batch", &bpath, "--out", &fits]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let res = std::fs::read_to_string(&fits).unwrap();
+    assert!(res.starts_with("id,n_states,k1_per_s,k2_per_s,k3_per_s,a1,a2,a3,spectrum_r,spectrum_g,spectrum_b,rms,flags\n"));
+    assert_eq!(res.lines().count(), 3);
+}
+
+#[test]
+fn a_curve_with_decreasing_times_is_rejected_naming_the_file_and_line() {
+    let d = tempfile::tempdir().unwrap();
+    let f = p(d.path(), "bad.csv");
+    std::fs::write(&f, "time_s,r,g,b\n0,3,2,1\n5,2,1,0.5\n4,1,0.5,0.2\n").unwrap();
+    let o = lumifit(&["phos", "fit-decay", &f, "--out", &p(d.path(), "o.json")]);
+    assert_rejected(&o, &["bad.csv", "line 4", "strictly increasing"]);
+    std::fs::write(&f, "time_s,r,g,b\n0,3,2,1\n5,2,x,0.5\n").unwrap();
+    let o = lumifit(&["phos", "fit-decay", &f, "--out", &p(d.path(), "o.json")]);
+    assert_rejected(&o, &["bad.csv", "line 3"]);
+}
+
+#[test]
+fn a_batch_with_a_wrong_header_or_duplicated_times_is_rejected_with_the_line() {
+    let d = tempfile::tempdir().unwrap();
+    let f = p(d.path(), "batch.csv");
+    std::fs::write(&f, "id,t,r,g,b\n").unwrap();
+    let o = lumifit(&[
+        "phos",
+        "fit-decay",
+        "--batch",
+        &f,
+        "--out",
+        &p(d.path(), "o.csv"),
+    ]);
+    assert_rejected(&o, &["batch.csv", "line 1", "id,time_s,r,g,b"]);
+    std::fs::write(&f, "id,time_s,r,g,b\na,0,3,2,1\na,0,2,1,1\n").unwrap();
+    let o = lumifit(&[
+        "phos",
+        "fit-decay",
+        "--batch",
+        &f,
+        "--out",
+        &p(d.path(), "o.csv"),
+    ]);
+    assert_rejected(&o, &["batch.csv", "line 3", "duplicated"]);
+}
+
+#[test]
+fn per_pixel_maps_and_frames_say_they_are_not_implemented_yet() {
+    let d = tempfile::tempdir().unwrap();
+    let o = lumifit(&[
+        "phos",
+        "fit-decay",
+        "--per-pixel",
+        "--out",
+        &p(d.path(), "maps"),
+    ]);
+    assert_rejected(&o, &["not implemented yet"]);
+    let o = lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        "blue_paint",
+        "--seed",
+        "1",
+        "--out",
+        &p(d.path(), "s"),
+    ]);
+    assert_rejected(&o, &["not implemented yet"]);
+}
+
+#[test]
+fn simulate_writes_emission_and_rejects_a_history_with_the_wrong_band_count() {
+    let d = tempfile::tempdir().unwrap();
+    let h = p(d.path(), "h.csv");
+    std::fs::write(
+        &h,
+        "duration_s,e1,e2,e3,e4,e5,e6,e7,e8\n600,1,1,1,1,1,1,1,1\n180,0,0,0,0,0,0,0,0\n",
+    )
+    .unwrap();
+    let out = p(d.path(), "em.csv");
+    let o = lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        "blue_paint",
+        "--history",
+        &h,
+        "--dt",
+        "5",
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap().lines().count(),
+        1 + 1 + 120 + 36
+    );
+    std::fs::write(&h, "duration_s,e1,e2\n600,1,1\n").unwrap();
+    let o = lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        "blue_paint",
+        "--history",
+        &h,
+        "--out",
+        &out,
+    ]);
+    assert_rejected(&o, &["h.csv", "line 1", "8 bands"]);
+}
