@@ -23,7 +23,7 @@ pub enum Command {
     Fluor(crate::commands::fluor::FluorCommand),
     /// Phosphorescence: simulate the rate equation and fit decays (Nalbach 2017).
     #[command(subcommand)]
-    Phos(crate::commands::phos::PhosCommand),
+    Phos(crate::commands::PhosCommands),
     /// Synthetic test data rendered by lumifit's own models.
     #[command(subcommand)]
     Synth(crate::commands::SynthCommands),

@@ -6,6 +6,7 @@ pub mod demo;
 pub mod fluor;
 pub mod lvf;
 pub mod phos;
+pub mod phos_excitation;
 pub mod preset;
 pub mod series;
 pub mod synth;
@@ -28,6 +29,20 @@ pub enum SynthCommands {
     /// LVF capture generators.
     #[command(flatten)]
     Lvf(synth_lvf::LvfSynthCommand),
+    /// Phosphor charging-experiment generators.
+    #[command(flatten)]
+    Excitation(phos_excitation::SynthExcitationCommand),
+}
+
+/// `lumifit phos …`: simulation and decay fitting, then excitation and design.
+#[derive(Debug, clap::Subcommand)]
+pub enum PhosCommands {
+    /// Simulation and decay fitting.
+    #[command(flatten)]
+    Decay(phos::PhosCommand),
+    /// Excitation-rate fitting and design from keyframes.
+    #[command(flatten)]
+    Excitation(phos_excitation::PhosExcitationCommand),
 }
 
 /// Dispatches a parsed command line.
@@ -42,9 +57,11 @@ pub fn run(cli: Cli) -> Result<()> {
             emit(&serde_json::to_string_pretty(&report)?)
         }
         Command::Fluor(c) => fluor::run(c),
-        Command::Phos(c) => phos::run(c),
+        Command::Phos(PhosCommands::Decay(c)) => phos::run(c),
+        Command::Phos(PhosCommands::Excitation(c)) => phos_excitation::run(c),
         Command::Synth(SynthCommands::Phos(c)) => synth::run(c),
         Command::Synth(SynthCommands::Lvf(c)) => synth_lvf::run(c),
+        Command::Synth(SynthCommands::Excitation(c)) => phos_excitation::run_synth(c),
         Command::Series(c) => series::run(c),
         Command::Lvf(c) => lvf::run(c),
         Command::Demo(a) => demo::run(&a),
