@@ -21,6 +21,8 @@ use lumifit::io::spectrum_csv;
 use crate::args::{Cli, ColorCommand, Command, PresetCommand};
 
 /// `lumifit synth …`: each domain contributes its own generators.
+// Parsed once per process; the size of the variants is irrelevant.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, clap::Subcommand)]
 pub enum SynthCommands {
     /// Phosphorescence generators.
@@ -35,6 +37,8 @@ pub enum SynthCommands {
 }
 
 /// `lumifit phos …`: simulation and decay fitting, then excitation and design.
+// Parsed once per process; the size of the variants is irrelevant.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, clap::Subcommand)]
 pub enum PhosCommands {
     /// Simulation and decay fitting.
