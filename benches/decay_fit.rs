@@ -3,7 +3,9 @@
 //! Marquardt on the projected residual, multiple right-hand sides). Both fit two rates with
 //! per-channel amplitudes (the model varpro can express); lumifit is also timed with its default
 //! shared-spectrum model. Single thread. Prints fits/s and the median relative rate error of
-//! each, then runs criterion on one curve. `cargo bench --bench decay_fit`.
+//! each, then runs criterion on one curve. `cargo bench --bench decay_fit`. The scipy peer
+//! (`curve_fit` with bounds ≥ 0, plus the lumifit CLI in the same run) is
+//! `scripts/bench/decay_fit_scipy.py`; results in docs/performance.md.
 
 use std::time::Instant;
 

@@ -130,6 +130,21 @@ struct Point {
     passive: Vec<bool>,
     resid: Vec<f64>,
     rss: f64,
+    /// QR of the whole (weighted) basis, shared by every right-hand side.
+    qr: Qr,
+    /// Per right-hand side: the unconstrained solution was feasible, so every column is
+    /// passive and `qr` is the factorisation of the passive columns.
+    all_passive: Vec<bool>,
+}
+
+/// Scratch buffers of the solver, allocated once per solve.
+#[derive(Debug, Clone, Default)]
+struct Scratch {
+    qtb: Vec<f64>,
+    x: Vec<f64>,
+    v: Vec<f64>,
+    sub: Vec<f64>,
+    sub_qr: Qr,
 }
 
 struct Evaluator<'m, 'd, M: SeparableModel> {
@@ -138,11 +153,16 @@ struct Evaluator<'m, 'd, M: SeparableModel> {
     m: usize,
     n: usize,
     free: Vec<bool>,
+    params: Vec<Option<usize>>,
     wy: Vec<f64>,
 }
 
 impl<M: SeparableModel> Evaluator<'_, '_, M> {
-    fn eval(&self, theta: &[f64], pt: &mut Point) -> bool {
+    /// Evaluates the basis and the projected residual at θ. The basis is factorised once and
+    /// the factorisation is shared by all right-hand sides: when the unconstrained solution is
+    /// feasible (the common case) it is the NNLS solution (same arithmetic as the fast path of
+    /// [`nnls`]); otherwise that right-hand side goes through Lawson–Hanson.
+    fn eval(&self, theta: &[f64], pt: &mut Point, sc: &mut Scratch) -> bool {
         let (m, n) = (self.m, self.n);
         pt.basis.resize(m * n, 0.0);
         pt.dbasis.resize(m * n, 0.0);
@@ -160,61 +180,95 @@ impl<M: SeparableModel> Evaluator<'_, '_, M> {
         }
         pt.coeffs.clear();
         pt.passive.clear();
+        pt.all_passive.clear();
         pt.resid.clear();
         pt.rss = 0.0;
+        let fast = m >= n;
+        if fast {
+            pt.qr.factor(&pt.basis, m, n);
+        }
+        sc.x.resize(n, 0.0);
         for r in 0..self.data.n_rhs {
             let y = &self.wy[r * m..(r + 1) * m];
-            let s = nnls(&pt.basis, m, n, y, &self.free);
-            pt.coeffs.extend_from_slice(&s.x);
-            pt.passive.extend_from_slice(&s.passive);
-            for i in 0..m {
-                let mut f = 0.0;
-                for j in 0..n {
-                    f += pt.basis[j * m + i] * s.x[j];
-                }
-                pt.resid.push(y[i] - f);
+            let mut feasible = false;
+            if fast {
+                sc.qtb.clear();
+                sc.qtb.extend_from_slice(y);
+                pt.qr.qt_mul(&mut sc.qtb);
+                pt.qr.solve_r(&sc.qtb, &mut sc.x);
+                feasible = sc.x.iter().zip(&self.free).all(|(v, f)| *f || *v >= 0.0);
             }
-            pt.rss += s.rss;
+            if feasible {
+                pt.coeffs.extend_from_slice(&sc.x);
+                pt.passive.extend(std::iter::repeat_n(true, n));
+                pt.all_passive.push(true);
+            } else {
+                let s = nnls(&pt.basis, m, n, y, &self.free);
+                pt.coeffs.extend_from_slice(&s.x);
+                pt.passive.extend_from_slice(&s.passive);
+                pt.all_passive.push(false);
+            }
+            let c = &pt.coeffs[r * n..(r + 1) * n];
+            let start = pt.resid.len();
+            pt.resid.extend_from_slice(y);
+            let res = &mut pt.resid[start..];
+            for j in 0..n {
+                if c[j] != 0.0 {
+                    let col = &pt.basis[j * m..(j + 1) * m];
+                    for i in 0..m {
+                        res[i] -= col[i] * c[j];
+                    }
+                }
+            }
+            pt.rss += res.iter().map(|v| v * v).sum::<f64>();
         }
         pt.rss.is_finite()
     }
 
     /// Kaufman Jacobian of the stacked residual (m·n_rhs × p), column-major.
-    fn jacobian(&self, pt: &Point, p: usize, jac: &mut Vec<f64>) {
+    fn jacobian(&self, pt: &Point, p: usize, jac: &mut Vec<f64>, sc: &mut Scratch) {
         let (m, n) = (self.m, self.n);
         let rows = m * self.data.n_rhs;
         jac.clear();
         jac.resize(rows * p, 0.0);
-        let mut sub = Vec::with_capacity(m * n);
-        let mut v = vec![0.0; m];
+        sc.v.resize(m, 0.0);
         for r in 0..self.data.n_rhs {
             let c = &pt.coeffs[r * n..(r + 1) * n];
             let pas = &pt.passive[r * n..(r + 1) * n];
-            sub.clear();
-            let mut k = 0;
-            for j in 0..n {
-                if pas[j] {
-                    sub.extend_from_slice(&pt.basis[j * m..(j + 1) * m]);
-                    k += 1;
+            let k;
+            let qr = if pt.all_passive[r] {
+                k = n;
+                &pt.qr
+            } else {
+                sc.sub.clear();
+                let mut kk = 0;
+                for j in 0..n {
+                    if pas[j] {
+                        sc.sub.extend_from_slice(&pt.basis[j * m..(j + 1) * m]);
+                        kk += 1;
+                    }
                 }
-            }
-            let qr = Qr::new(&sub, m, k);
+                k = kk;
+                sc.sub_qr.factor(&sc.sub, m, k);
+                &sc.sub_qr
+            };
             for q in 0..p {
-                v.iter_mut().for_each(|x| *x = 0.0);
+                sc.v.iter_mut().for_each(|x| *x = 0.0);
                 let mut any = false;
                 for j in 0..n {
-                    if self.model.column_param(j) == Some(q) && c[j] != 0.0 {
+                    if self.params[j] == Some(q) && c[j] != 0.0 {
                         any = true;
+                        let d = &pt.dbasis[j * m..(j + 1) * m];
                         for i in 0..m {
-                            v[i] -= pt.dbasis[j * m + i] * c[j];
+                            sc.v[i] -= d[i] * c[j];
                         }
                     }
                 }
                 if any {
                     if k > 0 {
-                        qr.project_out(&mut v);
+                        qr.project_out(&mut sc.v);
                     }
-                    jac[q * rows + r * m..q * rows + (r + 1) * m].copy_from_slice(&v);
+                    jac[q * rows + r * m..q * rows + (r + 1) * m].copy_from_slice(&sc.v);
                 }
             }
         }
@@ -248,11 +302,13 @@ pub fn solve_separable<M: SeparableModel>(
         m,
         n,
         free: (0..n).map(|j| model.column_free(j)).collect(),
+        params: (0..n).map(|j| model.column_param(j)).collect(),
         wy,
     };
     let mut theta = theta0.to_vec();
     let mut cur = Point::default();
-    if !ev.eval(&theta, &mut cur) {
+    let mut sc = Scratch::default();
+    if !ev.eval(&theta, &mut cur, &mut sc) {
         return SeparableFit {
             theta,
             coeffs: vec![0.0; n * data.n_rhs],
@@ -276,10 +332,13 @@ pub fn solve_separable<M: SeparableModel>(
     let mut step = vec![0.0; p];
     let mut trial_theta = vec![0.0; p];
     let mut aug = Vec::new();
+    let mut rhs = vec![0.0; 2 * p];
+    let mut small = Qr::default();
+    let mut lin = Vec::with_capacity(p);
     while iterations < opts.max_iter {
         iterations += 1;
         if need_jac {
-            ev.jacobian(&cur, p, &mut jac);
+            ev.jacobian(&cur, p, &mut jac, &mut sc);
             qr.factor(&jac, rows, p);
             qtr.copy_from_slice(&cur.resid);
             qr.qt_mul(&mut qtr);
@@ -309,7 +368,7 @@ pub fn solve_separable<M: SeparableModel>(
         // J = ∂r/∂θ, so the Gauss–Newton step solves J δ ≈ −r.
         aug.clear();
         aug.resize(2 * p * p, 0.0);
-        let mut rhs = vec![0.0; 2 * p];
+        rhs.iter_mut().for_each(|v| *v = 0.0);
         for j in 0..p {
             for i in 0..=j {
                 aug[j * 2 * p + i] = qr.r(i, j);
@@ -318,15 +377,16 @@ pub fn solve_separable<M: SeparableModel>(
             aug[j * 2 * p + p + j] = mu.sqrt() * d;
             rhs[j] = -qtr[j];
         }
-        let small = Qr::new(&aug, 2 * p, p);
+        small.factor(&aug, 2 * p, p);
         small.qt_mul(&mut rhs);
         small.solve_r(&rhs, &mut step);
         for q in 0..p {
             trial_theta[q] = theta[q] + step[q];
         }
-        let ok = ev.eval(&trial_theta, &mut trial);
+        let ok = ev.eval(&trial_theta, &mut trial, &mut sc);
         // predicted reduction of ½‖r‖²: −gᵀδ·... computed from the linear model.
-        let mut lin = qtr[..p].to_vec();
+        lin.clear();
+        lin.extend_from_slice(&qtr[..p]);
         for i in 0..p {
             for j in i..p {
                 lin[i] += qr.r(i, j) * step[j];

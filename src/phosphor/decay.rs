@@ -320,8 +320,26 @@ impl DecayFit {
 /// Basis e^{−e^{θ_i} τ} (+ a constant column).
 struct ExpBasis<'a> {
     tau: &'a [f64],
+    /// The step when the times are evenly spaced from τ = 0: then e^{−kτ_i} = (e^{−k Δτ})^i,
+    /// one `exp` per column instead of one per sample.
+    step: Option<f64>,
     n_exp: usize,
     background: bool,
+}
+
+/// The common step of `tau` (starting at 0) when it is evenly spaced to 1e-12 relative.
+fn uniform_step(tau: &[f64]) -> Option<f64> {
+    let m = tau.len();
+    if m < 2 || tau[0] != 0.0 {
+        return None;
+    }
+    let dt = tau[m - 1] / (m - 1) as f64;
+    let ok = dt > 0.0
+        && tau
+            .iter()
+            .enumerate()
+            .all(|(i, t)| (t - i as f64 * dt).abs() <= 1e-12 * tau[m - 1]);
+    ok.then_some(dt)
 }
 
 impl SeparableModel for ExpBasis<'_> {
@@ -344,10 +362,23 @@ impl SeparableModel for ExpBasis<'_> {
         let m = self.tau.len();
         for (j, th) in theta.iter().enumerate().take(self.n_exp) {
             let k = th.exp();
-            for (i, &t) in self.tau.iter().enumerate() {
-                let e = (-k * t).exp();
-                basis[j * m + i] = e;
-                dbasis[j * m + i] = -k * t * e;
+            match self.step {
+                Some(dt) => {
+                    let r = (-k * dt).exp();
+                    let mut e = 1.0;
+                    for (i, &t) in self.tau.iter().enumerate() {
+                        basis[j * m + i] = e;
+                        dbasis[j * m + i] = -k * t * e;
+                        e *= r;
+                    }
+                }
+                None => {
+                    for (i, &t) in self.tau.iter().enumerate() {
+                        let e = (-k * t).exp();
+                        basis[j * m + i] = e;
+                        dbasis[j * m + i] = -k * t * e;
+                    }
+                }
             }
         }
         if self.background {
@@ -448,14 +479,35 @@ impl<'c> Prepared<'c> {
         }
     }
 
-    fn rss_of(&self, raw: &RawFit) -> f64 {
+    /// e^{−e^{θ_j} τ_i} for every state j and sample i (state after state).
+    fn exp_table(&self, theta: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        let step = uniform_step(&self.tau);
+        for th in theta {
+            let k = th.exp();
+            match step {
+                Some(dt) => {
+                    let r = (-k * dt).exp();
+                    let mut e = 1.0;
+                    for _ in 0..self.m {
+                        out.push(e);
+                        e *= r;
+                    }
+                }
+                None => out.extend(self.tau.iter().map(|t| (-k * t).exp())),
+            }
+        }
+    }
+
+    /// Weighted RSS of a fit, given its [`Self::exp_table`].
+    fn rss_of(&self, raw: &RawFit, ex: &[f64]) -> f64 {
         let (m, nc) = (self.m, self.n_ch);
         let mut rss = 0.0;
         for c in 0..nc {
             for i in 0..m {
                 let mut f = raw.background.get(c).copied().unwrap_or(0.0);
-                for (j, th) in raw.theta.iter().enumerate() {
-                    f += raw.c[j][c] * (-th.exp() * self.tau[i]).exp();
+                for j in 0..raw.theta.len() {
+                    f += raw.c[j][c] * ex[j * m + i];
                 }
                 let r = self.y[c * m + i] - f;
                 rss += self.w(i) * r * r;
@@ -468,6 +520,7 @@ impl<'c> Prepared<'c> {
     fn fit_from(&self, n: usize, theta0: &[f64], opts: &DecayFitOptions, s0: &[f64]) -> RawFit {
         let basis = ExpBasis {
             tau: &self.tau,
+            step: uniform_step(&self.tau),
             n_exp: n,
             background: opts.background,
         };
@@ -517,6 +570,7 @@ impl<'c> Prepared<'c> {
         let mut theta = theta0.to_vec();
         let mut ys = vec![0.0; m];
         let mut raw = None;
+        let mut ex = Vec::with_capacity(n * m);
         let ybar: Vec<f64> = {
             let wsum: f64 = (0..m).map(|i| self.w(i)).sum();
             (0..nc)
@@ -549,14 +603,9 @@ impl<'c> Prepared<'c> {
                 Vec::new()
             };
             // f(τ) = Σ a_j e^{−k_j τ}; s ← (Y − 1bᵀ)ᵀ W f / fᵀ W f
+            self.exp_table(&theta, &mut ex);
             let f: Vec<f64> = (0..m)
-                .map(|i| {
-                    theta
-                        .iter()
-                        .zip(&a)
-                        .map(|(th, aj)| aj * (-th.exp() * self.tau[i]).exp())
-                        .sum()
-                })
+                .map(|i| (0..n).map(|j| a[j] * ex[j * m + i]).sum())
                 .collect();
             let ff: f64 = (0..m).map(|i| self.w(i) * f[i] * f[i]).sum();
             let mut done = true;
@@ -593,7 +642,7 @@ impl<'c> Prepared<'c> {
                 rss: 0.0,
                 termination: fit.termination,
             };
-            r.rss = self.rss_of(&r);
+            r.rss = self.rss_of(&r, &ex);
             raw = Some(r);
             s = new_s;
             if done {
@@ -613,14 +662,7 @@ impl<'c> Prepared<'c> {
 
     /// Starting rates for n states: warm starts from the (n−1)-state rates, then log-spaced.
     fn starts(&self, n: usize, prev: Option<&[f64]>, n_starts: usize) -> Vec<Vec<f64>> {
-        let span = self.tau[self.m - 1].max(f64::MIN_POSITIVE);
-        let dt = self
-            .tau
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .fold(f64::INFINITY, f64::min)
-            .max(span * 1e-6);
-        let (lo, hi) = ((0.5 / span).ln(), (1.0 / dt).ln());
+        let (lo, hi) = self.log_rate_range();
         let mut out: Vec<Vec<f64>> = Vec::new();
         if let Some(p) = prev {
             let mx = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
@@ -649,10 +691,112 @@ impl<'c> Prepared<'c> {
         out
     }
 
-    fn fit_n(&self, n: usize, prev: Option<&[f64]>, opts: &DecayFitOptions, s0: &[f64]) -> RawFit {
+    /// Range of plausible ln k: from half a decay over the record to one decay per sample step.
+    fn log_rate_range(&self) -> (f64, f64) {
+        let span = self.tau[self.m - 1].max(f64::MIN_POSITIVE);
+        let dt = self
+            .tau
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min)
+            .max(span * 1e-6);
+        ((0.5 / span).ln(), (1.0 / dt).ln())
+    }
+
+    /// One-state starting rate from a log-linear fit of the channel sum (weights z², the usual
+    /// correction of the log transform), clamped to the plausible range.
+    fn log_linear_start(&self) -> f64 {
+        let (lo, hi) = self.log_rate_range();
+        let (m, nc) = (self.m, self.n_ch);
+        let (mut sw, mut st, mut sz, mut stt, mut stz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..m {
+            let z: f64 = (0..nc).map(|c| self.y[c * m + i]).sum();
+            if !(z > 0.0) {
+                continue;
+            }
+            let w = z * z * self.w(i);
+            let (t, lz) = (self.tau[i], z.ln());
+            sw += w;
+            st += w * t;
+            sz += w * lz;
+            stt += w * t * t;
+            stz += w * t * lz;
+        }
+        let den = sw * stt - st * st;
+        let k = -(sw * stz - st * sz) / den;
+        if k > 0.0 && k.is_finite() {
+            k.ln().clamp(lo, hi)
+        } else {
+            0.5 * (lo + hi)
+        }
+    }
+
+    /// Whether a fit from the first start can be accepted without trying the others: converged,
+    /// every state with a positive amplitude, rates distinct and in a plausible range, and a
+    /// better fit than the nested model with one state fewer.
+    fn acceptable(&self, r: &RawFit, prev_rss: Option<f64>) -> bool {
+        if !r.termination.converged() || !r.rss.is_finite() {
+            return false;
+        }
+        let (lo, hi) = self.log_rate_range();
+        if r.theta.iter().any(|t| !(*t >= lo - 3.0 && *t <= hi + 3.0)) {
+            return false;
+        }
+        let amp = |j: usize| {
+            r.c[j]
+                .iter()
+                .cloned()
+                .fold(r.a.get(j).copied().unwrap_or(0.0), f64::max)
+        };
+        let n = r.theta.len();
+        let amax = (0..n).map(amp).fold(0.0_f64, f64::max);
+        if !(amax > 0.0) || (0..n).any(|j| !(amp(j) > 1e-6 * amax)) {
+            return false;
+        }
+        for i in 0..n {
+            for j in i + 1..n {
+                if !((r.theta[i] - r.theta[j]).abs() > 0.05) {
+                    return false;
+                }
+            }
+        }
+        prev_rss.is_none_or(|p| r.rss < p)
+    }
+
+    fn fit_n(
+        &self,
+        n: usize,
+        prev: Option<(&[f64], f64)>,
+        opts: &DecayFitOptions,
+        s0: &[f64],
+    ) -> RawFit {
+        // One good start first (log-linear for one state, the nested fit plus a slower state
+        // otherwise); the multi-start below runs only when that fit is doubtful.
+        let first_start = match prev {
+            Some((p, _)) if p.len() + 1 == n => {
+                let mn = p.iter().cloned().fold(f64::INFINITY, f64::min);
+                let mut a = p.to_vec();
+                a.push(mn - 1.5);
+                Some(a)
+            }
+            _ if n == 1 => Some(vec![self.log_linear_start()]),
+            _ => None,
+        };
+        let mut first = None;
+        if let Some(st) = &first_start {
+            let r = self.fit_from(n, st, opts, s0);
+            if self.acceptable(&r, prev.map(|p| p.1)) {
+                return r;
+            }
+            first = Some(r);
+        }
+        // the doubtful first fit competes on RSS at the end but does not count as agreement
         let mut best: Option<RawFit> = None;
         let mut agree = 0;
-        for start in self.starts(n, prev, opts.n_starts) {
+        for start in self.starts(n, prev.map(|p| p.0), opts.n_starts) {
+            if first_start.as_ref() == Some(&start) {
+                continue;
+            }
             let r = self.fit_from(n, &start, opts, s0);
             match &best {
                 // two converged starts that reach the same minimum: stop searching
@@ -672,7 +816,17 @@ impl<'c> Prepared<'c> {
                 break;
             }
         }
-        best.unwrap_or_else(|| self.fit_from(n, &vec![0.0; n], opts, s0))
+        match (best, first) {
+            (Some(b), Some(f)) => {
+                if f.rss < b.rss {
+                    f
+                } else {
+                    b
+                }
+            }
+            (Some(b), None) | (None, Some(b)) => b,
+            (None, None) => self.fit_from(n, &vec![0.0; n], opts, s0),
+        }
     }
 
     fn n_params(&self, raw: &RawFit, opts: &DecayFitOptions) -> usize {
@@ -704,6 +858,11 @@ impl<'c> Prepared<'c> {
         let shared = nc > 1 && opts.amplitudes == AmplitudeModel::SharedSpectrum;
         let rows = m * nc;
         let t = &self.curve.t_s;
+        // e^{−k_j t_i}, computed once
+        let ex: Vec<f64> = ks
+            .iter()
+            .flat_map(|k| t.iter().map(move |ti| (-k * ti).exp()))
+            .collect();
         let mut cols: Vec<Vec<f64>> = Vec::new();
         let mut k_idx = vec![None; n];
         let mut a_idx = vec![None; n];
@@ -714,7 +873,7 @@ impl<'c> Prepared<'c> {
             let mut dk = vec![0.0; rows];
             for c in 0..nc {
                 for i in 0..m {
-                    dk[c * m + i] = -t[i] * c_abs[j][c] * (-ks[j] * t[i]).exp();
+                    dk[c * m + i] = -t[i] * c_abs[j][c] * ex[j * m + i];
                 }
             }
             k_idx[j] = Some(cols.len());
@@ -723,7 +882,7 @@ impl<'c> Prepared<'c> {
                 let mut da = vec![0.0; rows];
                 for c in 0..nc {
                     for i in 0..m {
-                        da[c * m + i] = spectrum[c] * (-ks[j] * t[i]).exp();
+                        da[c * m + i] = spectrum[c] * ex[j * m + i];
                     }
                 }
                 a_idx[j] = Some(cols.len());
@@ -735,7 +894,7 @@ impl<'c> Prepared<'c> {
                     }
                     let mut da = vec![0.0; rows];
                     for i in 0..m {
-                        da[c * m + i] = (-ks[j] * t[i]).exp();
+                        da[c * m + i] = ex[j * m + i];
                     }
                     cols.push(da);
                 }
@@ -756,7 +915,7 @@ impl<'c> Prepared<'c> {
                 }
                 let mut ds = vec![0.0; rows];
                 for i in 0..m {
-                    ds[c * m + i] = (0..n).map(|j| a_abs[j] * (-ks[j] * t[i]).exp()).sum();
+                    ds[c * m + i] = (0..n).map(|j| a_abs[j] * ex[j * m + i]).sum();
                 }
                 cols.push(ds);
             }
@@ -978,8 +1137,8 @@ pub fn fit_decay(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit>
     // fit 1..=hi (lower counts seed the higher ones and serve the collapse rule)
     let mut raws: Vec<RawFit> = Vec::with_capacity(hi);
     for n in 1..=hi {
-        let prev = raws.last().map(|r| r.theta.clone());
-        let mut r = prep.fit_n(n, prev.as_deref(), opts, &s0);
+        let prev = raws.last().map(|r| (r.theta.clone(), r.rss));
+        let mut r = prep.fit_n(n, prev.as_ref().map(|(t, v)| (&t[..], *v)), opts, &s0);
         // keep monotone: a larger model never fits worse than a smaller one nested in it
         if let Some(p) = raws.last() {
             if r.rss > p.rss * (1.0 + 1e-9) {
