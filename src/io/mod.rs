@@ -11,6 +11,7 @@ use crate::error::{Error, Result};
 
 pub mod exif;
 pub mod image;
+pub mod maps;
 pub mod raw;
 pub mod series;
 pub mod spectrum_csv;

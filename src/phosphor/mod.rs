@@ -14,6 +14,9 @@
 //! i = 0; both are read as k_r and i = 1 here.
 
 pub mod decay;
+pub mod design;
+pub mod excitation;
+pub mod maps;
 pub mod material;
 pub mod simulate;
 pub mod synth;

@@ -1,5 +1,7 @@
-//! Synthetic decay curves: charge a material, switch the light off, integrate each frame's
-//! exposure window in closed form (exact simulation), map to camera RGB and add noise.
+//! Synthetic decay curves and frames: charge a material, switch the light off, integrate each
+//! frame's exposure window in closed form (exact simulation), map to camera RGB and add noise.
+//! [`decay_curve`] gives one curve; [`DecayFrames`] renders whole frames (uniform, or two halves:
+//! the material and its [`two_state_variant`]) with per-pixel shot + read noise.
 //!
 //! Charging uses a flat irradiance with |E| = 1 over the bands (the paper's normalisation,
 //! §4.6). Materials without excitation rates (Table 1's decay-only rows) are assumed saturated
@@ -190,4 +192,170 @@ pub fn decay_curve(
         r0,
         saturation_assumed,
     })
+}
+
+/// Layout of synthetic frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameLayout {
+    /// The material everywhere.
+    Uniform,
+    /// Left half the material, right half its two-state variant ([`two_state_variant`]).
+    Halves,
+}
+
+/// The right half of [`FrameLayout::Halves`]: the material's first state plus a second state
+/// decaying five times slower with half its re-radiation (and, when it has one, the same
+/// excitation). A one-state material thus gains a slow tail; a material with more states keeps
+/// only its first, so the two halves always differ.
+pub fn two_state_variant(material: &Material) -> Result<Material> {
+    let Some(s1) = material.states.first() else {
+        return Err(Error::invalid("material", "no states"));
+    };
+    let mut s2 = s1.clone();
+    s2.k_r_per_s = s1.k_r_per_s / 5.0;
+    s2.lambda = s1.lambda.iter().map(|l| l / 2.0).collect();
+    let m = Material {
+        name: format!("{} (two-state variant)", material.name),
+        bands: material.bands.clone(),
+        states: vec![s1.clone(), s2],
+    };
+    m.validate()?;
+    Ok(m)
+}
+
+/// Synthetic 16-bit-ready frames of a decay: noiseless curves per region, scaled so the brightest
+/// value of the series is `peak_level` of full scale, rendered frame by frame with the shot +
+/// read noise of [`crate::capture::synth::noisy_value`].
+///
+/// A frame value is *v* = gain · Y(t) · exposure_s (ISO 100, f/1: the exposure factor is
+/// `exposure_s`), so the series loader's relative radiance *v* / exposure_s is gain · Y(t).
+#[derive(Debug, Clone)]
+pub struct DecayFrames {
+    /// Frame width in pixels.
+    pub width: usize,
+    /// Frame height in pixels.
+    pub height: usize,
+    /// Frame start times in s after switch-off.
+    pub t_s: Vec<f64>,
+    /// Exposure of every frame in s.
+    pub exposure_s: f64,
+    /// Scale from the simulation's camera RGB to relative radiance in the frames.
+    pub gain: f64,
+    /// Relative noise level.
+    pub noise: f64,
+    /// Noiseless curves: one for the uniform layout, left then right for halves.
+    pub curves: Vec<SyntheticCurve>,
+    seed: u64,
+    peak: f64,
+}
+
+/// Brightest frame value, as a fraction of full scale.
+pub const PEAK_LEVEL: f64 = 0.8;
+
+impl DecayFrames {
+    /// Prepares frames of `material` in `layout` seen by `camera` (the noise in `spec` is
+    /// applied per pixel by [`DecayFrames::frame`]).
+    ///
+    /// # Errors
+    /// As [`decay_curve`]; [`Error::InvalidArgument`] for an empty or huge size, or a material
+    /// that never glows (no signal).
+    pub fn new(
+        material: &Material,
+        layout: FrameLayout,
+        camera: &BandCamera,
+        spec: &DecaySeriesSpec,
+        width: usize,
+        height: usize,
+    ) -> Result<Self> {
+        if width < 2 || height < 1 || width.saturating_mul(height) > 64_000_000 {
+            return Err(Error::invalid(
+                "--size",
+                format!("{width}x{height}; expected 2x1 up to 64 megapixels"),
+            ));
+        }
+        let clean_spec = DecaySeriesSpec {
+            noise: 0.0,
+            ..spec.clone()
+        };
+        let mut curves = vec![decay_curve(material, camera, &clean_spec)?];
+        if layout == FrameLayout::Halves {
+            let v = two_state_variant(material)?;
+            curves.push(decay_curve(&v, camera, &clean_spec)?);
+        }
+        let max_y = curves
+            .iter()
+            .flat_map(|c| c.clean.iter().flatten())
+            .cloned()
+            .fold(0.0f64, f64::max);
+        if !(max_y.is_finite() && max_y > 0.0) {
+            return Err(Error::invalid(
+                "material",
+                format!("{} emits nothing after charging", material.name),
+            ));
+        }
+        let gain = PEAK_LEVEL / (max_y * spec.exposure_s);
+        Ok(Self {
+            width,
+            height,
+            t_s: curves[0].t_s.clone(),
+            exposure_s: spec.exposure_s,
+            gain,
+            noise: spec.noise,
+            curves,
+            seed: spec.seed,
+            peak: PEAK_LEVEL,
+        })
+    }
+
+    /// Number of frames.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// Whether there are no frames (never, once constructed).
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Noiseless frame value of region `region` (0 = left/uniform, 1 = right) in frame `j`.
+    pub fn clean_value(&self, region: usize, j: usize) -> [f64; 3] {
+        let c = &self.curves[region.min(self.curves.len() - 1)];
+        c.clean[j].map(|y| y * self.gain * self.exposure_s)
+    }
+
+    /// Frame `j` as interleaved linear RGB in [0, 1] (values at 1 saturate), with a seed derived
+    /// from the series seed and `j`, so frames can be rendered in any order or in parallel.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] when `j` is out of range.
+    pub fn frame(&self, j: usize) -> Result<Vec<f32>> {
+        if j >= self.len() {
+            return Err(Error::invalid(
+                "frame",
+                format!("{j}; the series has {} frames", self.len()),
+            ));
+        }
+        let mut rng = crate::capture::rng::SplitMix64::new(
+            self.seed ^ (j as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03),
+        );
+        let vals: Vec<[f64; 3]> = (0..self.curves.len())
+            .map(|r| self.clean_value(r, j))
+            .collect();
+        let half = self.width / 2;
+        let mut out = Vec::with_capacity(3 * self.width * self.height);
+        for _y in 0..self.height {
+            for x in 0..self.width {
+                let v = if vals.len() > 1 && x >= half {
+                    vals[1]
+                } else {
+                    vals[0]
+                };
+                for c in v {
+                    let n = crate::capture::synth::noisy_value(c, self.noise, self.peak, &mut rng);
+                    out.push(n.clamp(0.0, 1.0) as f32);
+                }
+            }
+        }
+        Ok(out)
+    }
 }

@@ -168,3 +168,91 @@ pub fn decay_chart(path: &Path, title: &str, curve: &DecayCurve, fit: &DecayFit)
         Ok(())
     })
 }
+
+/// Writes the integrator comparison (1200 × 800 px PNG): log₁₀ error against log₁₀ run time,
+/// one line with points per named series; errors are clamped to [10⁻¹⁶, 10⁶] for drawing
+/// (a diverged run sits on the top edge).
+pub fn integrator_chart(
+    path: &Path,
+    title: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+) -> Result<()> {
+    let clamp = |(t, e): (f64, f64)| -> Option<(f64, f64)> {
+        if !(t > 0.0) {
+            return None;
+        }
+        let e = if e.is_finite() {
+            e.clamp(1e-16, 1e6)
+        } else {
+            1e6
+        };
+        Some((t.log10(), e.log10()))
+    };
+    let pts: Vec<Vec<(f64, f64)>> = series
+        .iter()
+        .map(|(_, v)| v.iter().filter_map(|p| clamp(*p)).collect())
+        .collect();
+    let all: Vec<(f64, f64)> = pts.iter().flatten().cloned().collect();
+    if all.is_empty() {
+        return Err(Error::invalid("plot", "no positive run time to draw"));
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (x, y) in &all {
+        x0 = x0.min(*x);
+        x1 = x1.max(*x);
+        y0 = y0.min(*y);
+        y1 = y1.max(*y);
+    }
+    let colours = [
+        STATE_COLOURS[0],
+        STATE_COLOURS[1],
+        CHANNEL_COLOURS[0],
+        CHANNEL_COLOURS[2],
+        CHANNEL_COLOURS[1],
+        STATE_COLOURS[2],
+    ];
+    render_png(path, (1200, 800), |root| {
+        let caption = title.to_string();
+        let mut chart = spectral_axes(
+            &root,
+            &AxesSpec {
+                caption: Some(&caption),
+                x_label: "log10 run time per simulation (s)",
+                y_label: "log10 max relative emission error",
+                x_range: (x0 - 0.2, x1 + 0.2),
+                y_range: (y0 - 0.5, y1 + 0.5),
+                n_ticks: (8, 8),
+            },
+        )?;
+        for (i, ((name, _), p)) in series.iter().zip(&pts).enumerate() {
+            let col = colours[i % colours.len()];
+            chart
+                .draw_series(LineSeries::new(p.clone(), col.stroke_width(2)))
+                .map_err(draw_err)?
+                .label(name.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                });
+            chart
+                .draw_series(
+                    p.iter()
+                        .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
+                )
+                .map_err(draw_err)?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font((super::FONT, 16.0).into_font())
+            .position(SeriesLabelPosition::LowerLeft)
+            .draw()
+            .map_err(draw_err)?;
+        Ok(())
+    })
+}

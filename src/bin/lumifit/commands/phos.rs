@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
+use lumifit::capture::{PhotoSeries, Roi};
+use lumifit::io::series::{load_series, SeriesOptions};
 use lumifit::io::{atomic_write, read_input, spectrum_csv::read_multi_spectrum};
 use lumifit::phosphor::{
     self, band_spectrum, fit_decay, reradiation_functions, reradiation_functions_rgb,
@@ -25,6 +27,22 @@ pub enum PhosCommand {
     Simulate(SimulateArgs),
     /// Fit a decay curve (or a batch of curves) with a sum of exponentials.
     FitDecay(FitDecayArgs),
+    /// Error versus run time of the exact, RK4 and Euler integrators at several step sizes.
+    CompareIntegrators(CompareArgs),
+}
+
+/// `lumifit phos compare-integrators`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// A Table 1 material with excitation rates, or a preset JSON file.
+    #[arg(long, default_value = "green_paint")]
+    pub material: String,
+    /// Output table CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Error-versus-time plot PNG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 /// ODE integrator.
@@ -67,20 +85,28 @@ pub struct SimulateArgs {
 /// `lumifit phos fit-decay`.
 #[derive(Debug, Args)]
 pub struct FitDecayArgs {
-    /// Curve CSV: `time_s` and channels (`r,g,b` or one column), optional `std` or `weight`.
+    /// Curve CSV (`time_s` and channels `r,g,b` or one column, optional `std` or `weight`), or
+    /// with --roi / --per-pixel a photo series (manifest CSV `file,time_s,…` or a folder).
     pub curve: Option<PathBuf>,
-    /// Photo series directory (needs the capture I/O of issue 3; not implemented yet).
+    /// Photo series (manifest CSV or folder); the same as giving it as the positional argument
+    /// with --roi or --per-pixel.
     #[arg(long)]
     pub series: Option<PathBuf>,
-    /// Region of interest in the series (with --series).
+    /// Region of interest `x,y,w,h` in source pixels: fit its mean curve (relative radiance).
     #[arg(long)]
     pub roi: Option<String>,
+    /// Dark frame(s) subtracted from every frame of the series.
+    #[arg(long)]
+    pub dark: Vec<PathBuf>,
     /// Batch CSV `id,time_s,r,g,b[,std]` with many curves; writes one CSV row per curve.
     #[arg(long)]
     pub batch: Option<PathBuf>,
-    /// Fit every pixel of a series (not implemented yet).
+    /// Fit every pixel (or k×k block) of a series; --out is a directory of float TIFF maps.
     #[arg(long)]
     pub per_pixel: bool,
+    /// Block side k for --per-pixel (k×k pixels averaged per fit).
+    #[arg(long, default_value_t = 1)]
+    pub block: usize,
     /// Number of states: auto (BIC over 1–3) or 1, 2, 3.
     #[arg(long, default_value = "auto")]
     pub states: String,
@@ -99,7 +125,7 @@ pub struct FitDecayArgs {
     /// Material name written into the preset.
     #[arg(long)]
     pub name: Option<String>,
-    /// Output: material preset JSON (curve) or CSV (--batch).
+    /// Output: material preset JSON (curve, --roi), CSV (--batch) or directory (--per-pixel).
     #[arg(long)]
     pub out: PathBuf,
     /// Decay plot PNG (curve mode).
@@ -112,6 +138,7 @@ pub fn run(cmd: PhosCommand) -> Result<()> {
     match cmd {
         PhosCommand::Simulate(a) => simulate(&a),
         PhosCommand::FitDecay(a) => fit_decay_cmd(&a),
+        PhosCommand::CompareIntegrators(a) => compare_integrators(&a),
     }
 }
 
@@ -377,13 +404,27 @@ fn options(a: &FitDecayArgs) -> Result<DecayFitOptions> {
 }
 
 fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
-    if a.per_pixel {
-        bail!("--per-pixel is not implemented yet — needs the capture I/O of issue 3 (photo series in memory)");
-    }
-    if a.series.is_some() || a.roi.is_some() {
-        bail!("fitting a photo series (--series/--roi) is not implemented yet — needs the capture I/O of issue 3");
-    }
     let opts = options(a)?;
+    if a.per_pixel || a.roi.is_some() || a.series.is_some() {
+        let series = match (&a.series, &a.curve) {
+            (Some(_), Some(_)) => {
+                bail!("give the series either as the argument or with --series, not both")
+            }
+            (Some(s), None) | (None, Some(s)) => s,
+            (None, None) => bail!("no series: give a manifest CSV or a folder of frames"),
+        };
+        if a.batch.is_some() {
+            bail!("--batch cannot be combined with a photo series");
+        }
+        return match (a.per_pixel, &a.roi) {
+            (true, Some(_)) => {
+                bail!("give either --roi (one curve) or --per-pixel (maps), not both")
+            }
+            (true, None) => per_pixel(series, a, &opts),
+            (false, Some(r)) => roi_fit(series, r, a, &opts),
+            (false, None) => bail!("a photo series needs --roi x,y,w,h or --per-pixel"),
+        };
+    }
     match (&a.curve, &a.batch) {
         (Some(_), Some(_)) => bail!("give either a curve CSV or --batch, not both"),
         (None, None) => bail!("nothing to fit: give a curve CSV or --batch FILE.csv"),
@@ -402,9 +443,68 @@ fn flags_text(fit: &DecayFit) -> String {
 
 fn single(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
     let curve = read_curve(path)?;
+    fit_and_write(path, curve, a, opts, None)
+}
+
+fn load_series_with_bar(path: &Path, darks: &[PathBuf]) -> Result<PhotoSeries> {
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("decoding {pos} frames {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    let options = SeriesOptions {
+        t0_s: None,
+        darks: darks.to_vec(),
+    };
+    let loaded = load_series(path, &options, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let loaded = loaded.with_context(|| format!("loading series {}", path.display()))?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(loaded.series)
+}
+
+fn roi_fit(series_path: &Path, roi: &str, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
+    let roi = Roi::parse_rect(roi)?;
+    let series = load_series_with_bar(series_path, &a.dark)?;
+    let samples = series
+        .extract(&roi)
+        .with_context(|| format!("{}: ROI {}", series_path.display(), roi.describe()))?;
+    // σ of each sample: the largest channel's standard error of the ROI mean
+    let sigma: Vec<f64> = samples
+        .iter()
+        .map(|s| {
+            let n = (s.n_pixels - s.n_saturated).max(1) as f64;
+            s.std.iter().cloned().fold(0.0f64, f64::max) / n.sqrt()
+        })
+        .collect();
+    let sigma = sigma
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0)
+        .then_some(sigma);
+    let t: Vec<f64> = samples.iter().map(|s| s.time_s).collect();
+    let channels = (0..3)
+        .map(|c| samples.iter().map(|s| s.mean[c]).collect())
+        .collect();
+    let curve = DecayCurve::new(t, channels, sigma)
+        .with_context(|| format!("{}: ROI {}", series_path.display(), roi.describe()))?;
+    fit_and_write(series_path, curve, a, opts, Some(roi.describe()))
+}
+
+fn fit_and_write(
+    path: &Path,
+    curve: DecayCurve,
+    a: &FitDecayArgs,
+    opts: &DecayFitOptions,
+    roi: Option<String>,
+) -> Result<()> {
     let fit = fit_decay(&curve, opts).with_context(|| format!("{}: decay fit", path.display()))?;
-    let (bytes, _) = read_input(path)?;
-    let mut inputs: Vec<(PathBuf, Vec<u8>)> = vec![(path.to_path_buf(), bytes)];
+    let mut inputs: Vec<(PathBuf, Vec<u8>)> = if path.is_file() {
+        vec![(path.to_path_buf(), read_input(path)?.0)]
+    } else {
+        vec![]
+    };
     let (bands, states) = match &a.spectrum {
         Some(sp) => {
             let sd = lumifit::io::spectrum_csv::read_spectrum(sp)?;
@@ -422,7 +522,20 @@ fn single(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
             (Bands::Rgb, reradiation_functions_rgb(&fit))
         }
     };
-    let report = fit_report(&fit);
+    let mut report = fit_report(&fit);
+    if let (Some(r), Some(obj)) = (&roi, report.as_object_mut()) {
+        obj.insert("roi".into(), serde_json::json!(r));
+        obj.insert(
+            "series".into(),
+            serde_json::json!(path.display().to_string()),
+        );
+        obj.insert(
+            "units".into(),
+            serde_json::json!(
+                "relative radiance: frame value / (exposure_s * ISO/100 / f_number^2)"
+            ),
+        );
+    }
     let refs: Vec<(&PathBuf, &[u8])> = inputs.iter().map(|(p, b)| (p, &b[..])).collect();
     let provenance =
         Provenance::new("lumifit phos fit-decay", &refs).with_fit_quality(serde_json::json!({
@@ -654,4 +767,213 @@ fn batch(path: &Path, opts: &DecayFitOptions, out: &Path) -> Result<()> {
         rayon::current_num_threads(),
         out.display()
     ))
+}
+
+fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
+    if a.spectrum.is_some() || a.plot.is_some() {
+        bail!("--spectrum and --plot apply to one curve; with --per-pixel the maps are the output");
+    }
+    let series = load_series_with_bar(series_path, &a.dark)?;
+    let first = series
+        .frames()
+        .first()
+        .ok_or_else(|| anyhow!("{}: no frames", series_path.display()))?;
+    let (w, h) = (first.frame.width, first.frame.height);
+    let rows = h.div_ceil(a.block.max(1));
+    let bar = indicatif::ProgressBar::new(rows as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "fitting [{bar:30}] {pos}/{len} rows of blocks ({per_sec}, eta {eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let start = std::time::Instant::now();
+    let maps = phosphor::maps::fit_pixel_maps(&series, a.block, opts, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let maps = maps.with_context(|| format!("{}: per-pixel fit", series_path.display()))?;
+    let secs = start.elapsed().as_secs_f64();
+    let out = &a.out;
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let (mw, mh) = (maps.width, maps.height);
+    let mut files = Vec::new();
+    let mut scalar = |name: &str, v: &[f32]| -> Result<()> {
+        lumifit::io::maps::write_scalar_map(&out.join(name), mw, mh, v)?;
+        files.push(name.to_string());
+        Ok(())
+    };
+    for i in 0..phosphor::maps::MAP_STATES {
+        scalar(&format!("k{}_per_s.tif", i + 1), &maps.k_per_s[i])?;
+        scalar(&format!("a{}.tif", i + 1), &maps.amplitude[i])?;
+    }
+    scalar("n_states.tif", &maps.n_states)?;
+    scalar("rms.tif", &maps.rms)?;
+    for (c, name) in ["r", "g", "b"].iter().enumerate() {
+        scalar(&format!("spectrum_{name}.tif"), &maps.spectrum[c])?;
+    }
+    lumifit::io::maps::write_rgb_map(
+        &out.join("spectrum_rgb.tif"),
+        mw,
+        mh,
+        [&maps.spectrum[0], &maps.spectrum[1], &maps.spectrum[2]],
+    )?;
+    files.push("spectrum_rgb.tif".into());
+    let median = |v: &[f32]| -> Option<f64> {
+        let mut x: Vec<f32> = v.iter().cloned().filter(|x| x.is_finite()).collect();
+        if x.is_empty() {
+            return None;
+        }
+        x.sort_by(f32::total_cmp);
+        Some(f64::from(x[x.len() / 2]))
+    };
+    let mut hist = [0usize; 4];
+    for n in &maps.n_states {
+        hist[(*n as usize).min(3)] += 1;
+    }
+    let n_blocks = mw * mh;
+    let summary = serde_json::json!({
+        "series": series_path.display().to_string(),
+        "frames": series.len(),
+        "frame_size": [w, h],
+        "block": maps.block,
+        "map_size": [mw, mh],
+        "blocks": n_blocks,
+        "fitted": maps.n_fitted,
+        "failed": maps.n_failed,
+        "n_states_histogram": {"failed": hist[0], "1": hist[1], "2": hist[2], "3": hist[3]},
+        "median": {
+            "k1_per_s": median(&maps.k_per_s[0]), "k2_per_s": median(&maps.k_per_s[1]),
+            "k3_per_s": median(&maps.k_per_s[2]), "rms": median(&maps.rms),
+        },
+        "seconds": secs,
+        "blocks_per_s": n_blocks as f64 / secs.max(1e-9),
+        "threads": rayon::current_num_threads(),
+        "maps": files,
+        "format": "32-bit float TIFF, value repeated in R=G=B (spectrum_rgb.tif: r,g,b); NaN where a block could not be fitted; k1 is the fastest rate",
+        "weights": "relative: sigma_t = max(max_c y_c(t), 1e-2 * peak) per block",
+    });
+    atomic_write(
+        &out.join("summary.json"),
+        serde_json::to_string_pretty(&summary)?.as_bytes(),
+    )?;
+    super::emit(&serde_json::to_string_pretty(&summary)?)
+}
+
+/// One row of the integrator comparison.
+struct IntegratorRow {
+    case: &'static str,
+    integrator: &'static str,
+    dt_s: f64,
+    seconds: f64,
+    error: f64,
+}
+
+/// History of the comparison: charge 600 s under flat light of magnitude `scale` (|E| = scale
+/// over the bands), then 600 s dark.
+fn compare_history(material: &Material, scale: f64) -> Vec<Segment> {
+    let nb = material.bands.len();
+    let e = scale / (nb as f64).sqrt();
+    vec![
+        Segment {
+            duration_s: 600.0,
+            irradiance: vec![e; nb],
+        },
+        Segment {
+            duration_s: 600.0,
+            irradiance: vec![0.0; nb],
+        },
+    ]
+}
+
+fn compare_integrators(a: &CompareArgs) -> Result<()> {
+    let material = resolve_material(&a.material)?;
+    if !material.has_excitation() {
+        bail!(
+            "{}: the material has no excitation rates k_e; pick one that does (e.g. green_paint)",
+            a.material
+        );
+    }
+    let r0 = vec![0.0; material.states.len()];
+    let mut rows = Vec::new();
+    for (case, scale) in [("normal |E|=1", 1.0), ("bright |E|=100", 100.0)] {
+        let history = compare_history(&material, scale);
+        for dt in [0.05, 0.1, 0.5, 1.0, 5.0, 10.0] {
+            let reference = phosphor::simulate(&material, &history, &r0, dt, Integrator::Exact)?;
+            let peak = reference
+                .emission
+                .iter()
+                .flatten()
+                .cloned()
+                .fold(0.0f64, f64::max)
+                .max(f64::MIN_POSITIVE);
+            for (name, integ) in [
+                ("exact", Integrator::Exact),
+                ("rk4", Integrator::Rk4),
+                ("euler", Integrator::Euler),
+            ] {
+                // repeat until 20 ms have passed, report the time per run
+                let start = std::time::Instant::now();
+                let mut runs = 0u32;
+                let sim = loop {
+                    let sim = phosphor::simulate(&material, &history, &r0, dt, integ)?;
+                    runs += 1;
+                    if start.elapsed().as_secs_f64() > 0.02 || runs >= 1000 {
+                        break sim;
+                    }
+                };
+                let seconds = start.elapsed().as_secs_f64() / f64::from(runs);
+                let mut err = 0.0f64;
+                for (l, lr) in sim.emission.iter().zip(&reference.emission) {
+                    for (x, y) in l.iter().zip(lr) {
+                        let d = (x - y).abs() / peak;
+                        err = if d.is_finite() {
+                            err.max(d)
+                        } else {
+                            f64::INFINITY
+                        };
+                    }
+                }
+                rows.push(IntegratorRow {
+                    case,
+                    integrator: name,
+                    dt_s: dt,
+                    seconds,
+                    error: err,
+                });
+            }
+        }
+    }
+    let mut csv = String::from("case,integrator,dt_s,seconds_per_run,max_rel_error\n");
+    for r in &rows {
+        csv.push_str(&format!(
+            "{},{},{},{:.3e},{:.3e}\n",
+            r.case, r.integrator, r.dt_s, r.seconds, r.error
+        ));
+    }
+    atomic_write(&a.out, csv.as_bytes())?;
+    if let Some(p) = &a.plot {
+        let series: Vec<(String, Vec<(f64, f64)>)> = rows
+            .chunk_by(|x, y| x.case == y.case)
+            .flat_map(|case_rows| {
+                ["rk4", "euler"].map(|name| {
+                    (
+                        format!("{} {}", name, case_rows[0].case),
+                        case_rows
+                            .iter()
+                            .filter(|r| r.integrator == name)
+                            .map(|r| (r.seconds, r.error))
+                            .collect::<Vec<_>>(),
+                    )
+                })
+            })
+            .collect();
+        lumifit::plot::integrator_chart(
+            p,
+            &format!(
+                "{}: max relative emission error vs run time (exact = 0)",
+                material.name
+            ),
+            &series,
+        )?;
+    }
+    super::emit(&csv)
 }

@@ -1,0 +1,744 @@
+//! Excitation rates from charging experiments (Nalbach et al. 2017, §4.6).
+//!
+//! A sample kept dark (r_i = 0) is charged for T seconds by the light of one band j, the light
+//! is switched off and, after the switch-off delay δ, the camera reads its emission. With the
+//! source spectrum E_j over the material's bands normalised to unit length (the paper's
+//! choice) and k_e,i assumed constant over the source's support, the excitation of state i is
+//! a_i = k_e,i(j)·s_j with s_j = Σ_b E_j[b] (s_j = 1 for a source inside one band). Eq. 1 under
+//! constant light has the exact solution
+//!
+//! `r_i(T) = a_i/(a_i + k_r,i) · (1 − e^{−(a_i + k_r,i) T})`,
+//!
+//! and the camera reads `y = Σ_i C (Λ_i k_r,i) r_i(T) e^{−k_r,i δ}` (Eq. 3, C the band camera).
+//! The derivative used by the fit is analytic, with λ = a + k_r and E = e^{−λT}:
+//!
+//! `∂r/∂a = k_r (1 − E)/λ² + (a/λ) T E`,  `∂r/∂k_e = s_j ∂r/∂a`.
+//!
+//! Bands are fitted independently by a damped Gauss–Newton (Levenberg–Marquardt) iteration on
+//! k_e ≥ 0 (projected), started from a log-grid. With several states, k_e is either shared by
+//! the states or fitted per state; `Auto` takes the per-state model only when BIC prefers it
+//! and every per-state rate is determined to better than 50 % (state-specific excitation is
+//! only identifiable when the charging curve shows it).
+//!
+//! When the simulated concentration never exceeds [`SATURATION_MIN`], the signal is linear in
+//! a_i, so the data determine only the product k_e·Λ: the fit still reports k_e (given Λ from
+//! the decay fit) and flags the band `product_only`.
+//!
+//! No colour-science counterpart exists.
+
+// Index loops mirror the matrix notation of the maths; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::error::{Error, Result};
+
+use super::material::Material;
+use super::simulate::{final_state, BandCamera, Segment};
+use super::synth::Gaussian;
+
+/// Largest simulated concentration below which a band's charging is called unsaturated
+/// (signal linear in k_e to within 10 %, so k_e and Λ are not separable).
+pub const SATURATION_MIN: f64 = 0.1;
+
+/// Relative standard deviation above which a per-state rate counts as undetermined.
+const PER_STATE_MAX_REL_SIGMA: f64 = 0.5;
+
+/// One measurement: band j (0-based index into the material's bands) charged for `charge_s`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChargingSample {
+    /// Excitation band, 0-based.
+    pub band: usize,
+    /// Charging time in s (≥ 0).
+    pub charge_s: f64,
+    /// Camera RGB after the switch-off delay.
+    pub rgb: [f64; 3],
+    /// Standard deviation of each channel, if known.
+    pub sigma: Option<f64>,
+}
+
+/// How k_e is shared between states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StateSharing {
+    /// Per-state only when the data identify it (BIC and per-state precision).
+    Auto,
+    /// One k_e per band for all states.
+    Shared,
+    /// One k_e per band and state.
+    PerState,
+}
+
+/// Options of the excitation fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExcitationOptions {
+    /// Delay between switch-off and measurement in s (the paper: about 0.6 s).
+    pub switch_off_delay_s: f64,
+    /// Sharing of k_e between states.
+    pub sharing: StateSharing,
+    /// Maximum LM iterations.
+    pub max_iterations: usize,
+}
+
+impl Default for ExcitationOptions {
+    fn default() -> Self {
+        ExcitationOptions {
+            switch_off_delay_s: 0.6,
+            sharing: StateSharing::Auto,
+            max_iterations: 200,
+        }
+    }
+}
+
+/// The fit of one band.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BandFit {
+    /// Band, 0-based.
+    pub band: usize,
+    /// k_e per state (equal when shared).
+    pub k_e: Vec<f64>,
+    /// Standard deviation of each k_e.
+    pub k_e_sigma: Vec<f64>,
+    /// Whether one k_e is shared by all states.
+    pub shared: bool,
+    /// Why the sharing was chosen.
+    pub sharing_reason: String,
+    /// s_j = Σ_b E_j[b] of the unit-length source.
+    pub source_sum: f64,
+    /// Largest simulated concentration over the samples.
+    pub r_max: f64,
+    /// Charging never approached saturation: only k_e·Λ is determined.
+    pub product_only: bool,
+    /// Charging times of the samples (s).
+    pub charge_s: Vec<f64>,
+    /// Measured RGB.
+    pub data: Vec<[f64; 3]>,
+    /// Model RGB at the samples.
+    pub model: Vec<[f64; 3]>,
+    /// Equilibrium RGB (T → ∞).
+    pub equilibrium: [f64; 3],
+    /// Root-mean-square weighted residual.
+    pub rms: f64,
+    /// χ² of the weighted residuals.
+    pub chi2: f64,
+    /// LM iterations.
+    pub iterations: usize,
+    /// Whether the relative step fell below 1e-10.
+    pub converged: bool,
+}
+
+/// All bands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExcitationFit {
+    /// Fits, by band.
+    pub bands: Vec<BandFit>,
+    /// Switch-off delay used.
+    pub switch_off_delay_s: f64,
+}
+
+/// Precomputed per-state camera response and decay.
+struct Model {
+    /// g_i · e^{−k_r δ}: RGB per unit concentration of state i after the delay.
+    g: Vec<[f64; 3]>,
+    k_r: Vec<f64>,
+    s: f64,
+}
+
+impl Model {
+    fn new(material: &Material, camera: &BandCamera, s: f64, delay_s: f64) -> Self {
+        let mut g = Vec::new();
+        let mut k_r = Vec::new();
+        for st in &material.states {
+            let em: Vec<f64> = st.lambda.iter().map(|l| l * st.k_r_per_s).collect();
+            let rgb = camera.rgb(&em);
+            let d = (-st.k_r_per_s * delay_s).exp();
+            g.push(rgb.map(|v| v * d));
+            k_r.push(st.k_r_per_s);
+        }
+        Model { g, k_r, s }
+    }
+
+    /// r and ∂r/∂k_e of state i after charging T with rate k.
+    fn r_and_deriv(&self, i: usize, k: f64, t: f64) -> (f64, f64) {
+        let a = k * self.s;
+        let kr = self.k_r[i];
+        let lam = a + kr;
+        let e = (-lam * t).exp();
+        let r = a / lam * (1.0 - e);
+        let dr_da = kr * (1.0 - e) / (lam * lam) + a / lam * t * e;
+        (r, dr_da * self.s)
+    }
+
+    fn rgb(&self, k: &[f64], t: f64) -> [f64; 3] {
+        let mut y = [0.0; 3];
+        for i in 0..self.g.len() {
+            let (r, _) = self.r_and_deriv(i, k[i], t);
+            for c in 0..3 {
+                y[c] += self.g[i][c] * r;
+            }
+        }
+        y
+    }
+
+    fn equilibrium(&self, k: &[f64]) -> [f64; 3] {
+        let mut y = [0.0; 3];
+        for i in 0..self.g.len() {
+            let a = k[i] * self.s;
+            let req = a / (a + self.k_r[i]);
+            for c in 0..3 {
+                y[c] += self.g[i][c] * req;
+            }
+        }
+        y
+    }
+}
+
+/// Parameter vector (p entries) to per-state rates.
+fn expand(p: &[f64], n_states: usize) -> Vec<f64> {
+    if p.len() == 1 {
+        vec![p[0]; n_states]
+    } else {
+        p.to_vec()
+    }
+}
+
+struct Problem<'a> {
+    model: &'a Model,
+    t: Vec<f64>,
+    y: Vec<[f64; 3]>,
+    w: Vec<f64>,
+}
+
+impl Problem<'_> {
+    /// Weighted residuals (3 per sample) and Jacobian rows.
+    fn eval(&self, p: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let ns = self.model.g.len();
+        let k = expand(p, ns);
+        let mut res = Vec::with_capacity(self.t.len() * 3);
+        let mut jac = Vec::with_capacity(self.t.len() * 3);
+        for (s, &t) in self.t.iter().enumerate() {
+            let mut y = [0.0; 3];
+            let mut d = vec![[0.0; 3]; ns];
+            for i in 0..ns {
+                let (r, dr) = self.model.r_and_deriv(i, k[i], t);
+                for c in 0..3 {
+                    y[c] += self.model.g[i][c] * r;
+                    d[i][c] = self.model.g[i][c] * dr;
+                }
+            }
+            for c in 0..3 {
+                res.push((y[c] - self.y[s][c]) * self.w[s]);
+                let row: Vec<f64> = if p.len() == 1 {
+                    vec![(0..ns).map(|i| d[i][c]).sum::<f64>() * self.w[s]]
+                } else {
+                    (0..ns).map(|i| d[i][c] * self.w[s]).collect()
+                };
+                jac.push(row);
+            }
+        }
+        (res, jac)
+    }
+
+    fn chi2(&self, p: &[f64]) -> f64 {
+        self.eval(p).0.iter().map(|r| r * r).sum()
+    }
+}
+
+/// Solves the small symmetric system A x = b (Gaussian elimination with partial pivoting).
+fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for col in 0..n {
+        let piv = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if !(a[piv][col].abs() > 1e-300) {
+            return None;
+        }
+        a.swap(col, piv);
+        b.swap(col, piv);
+        for row in col + 1..n {
+            let f = a[row][col] / a[col][col];
+            for c in col..n {
+                a[row][c] -= f * a[col][c];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for row in (0..n).rev() {
+        let s: f64 = (row + 1..n).map(|c| a[row][c] * x[c]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+fn normal_equations(res: &[f64], jac: &[Vec<f64>], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let mut a = vec![vec![0.0; p]; p];
+    let mut g = vec![0.0; p];
+    for (r, row) in res.iter().zip(jac) {
+        for i in 0..p {
+            g[i] -= row[i] * r;
+            for j in 0..p {
+                a[i][j] += row[i] * row[j];
+            }
+        }
+    }
+    (a, g)
+}
+
+/// Projected LM from `p0`; returns (p, iterations, converged).
+fn levenberg_marquardt(prob: &Problem, p0: Vec<f64>, max_it: usize) -> (Vec<f64>, usize, bool) {
+    let np = p0.len();
+    let mut p = p0;
+    let mut mu = 1e-3;
+    let (mut res, mut jac) = prob.eval(&p);
+    let mut chi2: f64 = res.iter().map(|r| r * r).sum();
+    for it in 1..=max_it {
+        let (a, g) = normal_equations(&res, &jac, np);
+        let mut improved = false;
+        for _ in 0..30 {
+            let mut ad = a.clone();
+            for i in 0..np {
+                ad[i][i] += mu * a[i][i].max(1e-300);
+            }
+            let Some(dp) = solve(ad, g.clone()) else {
+                mu *= 10.0;
+                continue;
+            };
+            let trial: Vec<f64> = p.iter().zip(&dp).map(|(x, d)| (x + d).max(0.0)).collect();
+            let c2 = prob.chi2(&trial);
+            if c2 <= chi2 {
+                let step: f64 = trial
+                    .iter()
+                    .zip(&p)
+                    .map(|(t, x)| ((t - x) / x.abs().max(1e-12)).abs())
+                    .fold(0.0, f64::max);
+                let small = step < 1e-10 || (chi2 - c2) <= 1e-14 * chi2;
+                p = trial;
+                chi2 = c2;
+                (res, jac) = prob.eval(&p);
+                mu = (mu / 3.0).max(1e-12);
+                improved = true;
+                if small {
+                    return (p, it, true);
+                }
+                break;
+            }
+            mu *= 4.0;
+        }
+        if !improved {
+            return (p, it, true);
+        }
+    }
+    (p, max_it, false)
+}
+
+/// Standard deviations from (JᵀJ)⁻¹ scaled by the reduced χ² when `scale`.
+fn sigmas(prob: &Problem, p: &[f64], scale: bool) -> Vec<f64> {
+    let np = p.len();
+    let (res, jac) = prob.eval(p);
+    let (a, _) = normal_equations(&res, &jac, np);
+    let n = res.len();
+    let chi2: f64 = res.iter().map(|r| r * r).sum();
+    let s2 = if scale && n > np {
+        chi2 / (n - np) as f64
+    } else {
+        1.0
+    };
+    (0..np)
+        .map(|i| {
+            let mut e = vec![0.0; np];
+            e[i] = 1.0;
+            match solve(a.clone(), e) {
+                Some(col) => (col[i] * s2).max(0.0).sqrt(),
+                None => f64::INFINITY,
+            }
+        })
+        .collect()
+}
+
+/// The RGB the camera reads after charging a dark sample for `charge_s` with irradiance
+/// `source` (per band of the material) and waiting `delay_s` in darkness (exact simulation).
+pub fn charging_rgb(
+    material: &Material,
+    camera: &BandCamera,
+    source: &[f64],
+    charge_s: f64,
+    delay_s: f64,
+) -> Result<[f64; 3]> {
+    let ns = material.states.len();
+    let nb = material.bands.len();
+    let mut hist = Vec::new();
+    if charge_s > 0.0 {
+        hist.push(Segment {
+            duration_s: charge_s,
+            irradiance: source.to_vec(),
+        });
+    }
+    if delay_s > 0.0 {
+        hist.push(Segment {
+            duration_s: delay_s,
+            irradiance: vec![0.0; nb],
+        });
+    }
+    let r = if hist.is_empty() {
+        vec![0.0; ns]
+    } else {
+        final_state(material, &hist, &vec![0.0; ns])?
+    };
+    Ok(camera.rgb(&super::simulate::emission(material, &r)))
+}
+
+/// Unit-length irradiance of a source in band `band` only (an ideal narrow-band source).
+pub fn box_source(n_bands: usize, band: usize) -> Vec<f64> {
+    (0..n_bands)
+        .map(|b| f64::from(u8::from(b == band)))
+        .collect()
+}
+
+/// Normalises a per-band source to unit Euclidean length.
+pub fn unit_length(source: &[f64]) -> Result<Vec<f64>> {
+    let n = source.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if !(n > 0.0 && n.is_finite()) || source.iter().any(|v| *v < 0.0) {
+        return Err(Error::invalid(
+            "source",
+            "the source spectrum is zero (or negative) over the material's bands; expected a \
+             non-negative spectrum with light in the bands",
+        ));
+    }
+    Ok(source.iter().map(|v| v / n).collect())
+}
+
+/// Synthetic charging data: for each band (with its unit-length source) and charge time, the
+/// exact camera RGB after the delay plus Gaussian noise σ = √((ν·max_c y)² + (10⁻³ν·peak)²)
+/// (the noise model of [`super::synth`]). Returns the samples with σ filled in.
+pub fn synth_charging(
+    material: &Material,
+    camera: &BandCamera,
+    sources: &[(usize, Vec<f64>)],
+    charge_s: &[f64],
+    delay_s: f64,
+    noise: f64,
+    seed: u64,
+) -> Result<Vec<ChargingSample>> {
+    material.validate()?;
+    if !material.has_excitation() {
+        return Err(Error::invalid(
+            "material",
+            format!(
+                "'{}' has no excitation rates k_e (decay only); charging data need k_e",
+                material.name
+            ),
+        ));
+    }
+    if !(noise.is_finite() && noise >= 0.0) {
+        return Err(Error::invalid("noise", format!("{noise}; expected ≥ 0")));
+    }
+    check_delay(delay_s)?;
+    if let Some(t) = charge_s.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+        return Err(Error::invalid(
+            "charge times",
+            format!("{t} s; expected finite times ≥ 0"),
+        ));
+    }
+    let mut clean = Vec::new();
+    for (band, src) in sources {
+        for &t in charge_s {
+            clean.push((*band, t, charging_rgb(material, camera, src, t, delay_s)?));
+        }
+    }
+    let peak = clean
+        .iter()
+        .flat_map(|(_, _, y)| y.iter())
+        .fold(0.0_f64, |m, v| m.max(*v));
+    let mut g = Gaussian::new(seed);
+    Ok(clean
+        .into_iter()
+        .map(|(band, t, y)| {
+            let mx = y.iter().fold(0.0_f64, |m, v| m.max(*v));
+            let s = ((noise * mx).powi(2) + (1e-3 * noise * peak).powi(2)).sqrt();
+            let rgb = if noise > 0.0 {
+                y.map(|v| v + s * g.normal())
+            } else {
+                y
+            };
+            ChargingSample {
+                band,
+                charge_s: t,
+                rgb,
+                sigma: (s > 0.0).then_some(s),
+            }
+        })
+        .collect())
+}
+
+fn check_delay(delay_s: f64) -> Result<()> {
+    if !(delay_s.is_finite() && delay_s >= 0.0) {
+        return Err(Error::invalid(
+            "switch-off delay",
+            format!("{delay_s} s; expected a finite delay ≥ 0"),
+        ));
+    }
+    Ok(())
+}
+
+/// Fits k_e per band. `sources` gives, per measured band, the unit-length source irradiance
+/// over the material's bands. Every band present in `data` needs a source.
+pub fn fit_excitation(
+    material: &Material,
+    camera: &BandCamera,
+    sources: &[(usize, Vec<f64>)],
+    data: &[ChargingSample],
+    opts: &ExcitationOptions,
+) -> Result<ExcitationFit> {
+    material.validate()?;
+    check_delay(opts.switch_off_delay_s)?;
+    let nb = material.bands.len();
+    let ns = material.states.len();
+    let mut bands: Vec<usize> = data.iter().map(|s| s.band).collect();
+    bands.sort_unstable();
+    bands.dedup();
+    if bands.is_empty() {
+        return Err(Error::invalid(
+            "data",
+            "no charging samples; expected rows band,charge_s,r,g,b",
+        ));
+    }
+    let mut fits = Vec::new();
+    for &j in &bands {
+        if j >= nb {
+            return Err(Error::invalid(
+                "data",
+                format!(
+                    "band {} but the material has {nb} bands; expected 1 to {nb}",
+                    j + 1
+                ),
+            ));
+        }
+        let src = sources.iter().find(|(b, _)| *b == j).ok_or_else(|| {
+            Error::invalid(
+                "source",
+                format!(
+                    "no source spectrum for band {}; expected one per band in the data",
+                    j + 1
+                ),
+            )
+        })?;
+        let samples: Vec<&ChargingSample> = data.iter().filter(|s| s.band == j).collect();
+        for s in &samples {
+            if !(s.charge_s.is_finite() && s.charge_s >= 0.0) {
+                return Err(Error::invalid(
+                    "charge_s",
+                    format!("{} s in band {}; expected times ≥ 0", s.charge_s, j + 1),
+                ));
+            }
+        }
+        if samples.len() < 2 {
+            return Err(Error::invalid(
+                "data",
+                format!(
+                    "band {} has {} sample(s); expected at least 2",
+                    j + 1,
+                    samples.len()
+                ),
+            ));
+        }
+        let s_j: f64 = src.1.iter().sum();
+        if !(s_j > 0.0) {
+            return Err(Error::invalid(
+                "source",
+                format!(
+                    "the source of band {} has no light in the material's bands",
+                    j + 1
+                ),
+            ));
+        }
+        fits.push(fit_band(material, camera, j, s_j, &samples, opts, ns)?);
+    }
+    Ok(ExcitationFit {
+        bands: fits,
+        switch_off_delay_s: opts.switch_off_delay_s,
+    })
+}
+
+fn fit_band(
+    material: &Material,
+    camera: &BandCamera,
+    j: usize,
+    s_j: f64,
+    samples: &[&ChargingSample],
+    opts: &ExcitationOptions,
+    ns: usize,
+) -> Result<BandFit> {
+    let model = Model::new(material, camera, s_j, opts.switch_off_delay_s);
+    let peak = samples
+        .iter()
+        .flat_map(|s| s.rgb.iter())
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let known_sigma = samples.iter().all(|s| s.sigma.is_some_and(|v| v > 0.0));
+    let w: Vec<f64> = samples
+        .iter()
+        .map(|s| {
+            let sd = match s.sigma {
+                Some(v) if known_sigma => v,
+                _ => {
+                    let mx = s.rgb.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                    (mx * mx + (1e-3 * peak).powi(2)).sqrt()
+                }
+            };
+            if sd > 0.0 {
+                1.0 / sd
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let prob = Problem {
+        model: &model,
+        t: samples.iter().map(|s| s.charge_s).collect(),
+        y: samples.iter().map(|s| s.rgb).collect(),
+        w,
+    };
+    // Log-grid start for the shared rate: a = k s from 1e-6 to 1e3 s⁻¹.
+    let mut best = (f64::INFINITY, 0.0);
+    for g in 0..=90 {
+        let k = 10f64.powf(-6.0 + g as f64 / 10.0) / s_j;
+        let c = prob.chi2(&[k]);
+        if c < best.0 {
+            best = (c, k);
+        }
+    }
+    if prob.chi2(&[0.0]) <= best.0 {
+        best = (prob.chi2(&[0.0]), 0.0);
+    }
+    let (p1, it1, conv1) = levenberg_marquardt(&prob, vec![best.1], opts.max_iterations);
+    let chi1 = prob.chi2(&p1);
+    let sig1 = sigmas(&prob, &p1, !known_sigma);
+    let n = (samples.len() * 3) as f64;
+    let mut choice = (p1.clone(), sig1.clone(), it1, conv1, true);
+    let reason;
+    if ns == 1 {
+        reason = "one state: k_e is the state's".to_string();
+    } else if opts.sharing == StateSharing::Shared {
+        reason = "shared by request".to_string();
+    } else {
+        let (pn, itn, convn) = levenberg_marquardt(&prob, vec![p1[0]; ns], opts.max_iterations);
+        let chin = prob.chi2(&pn);
+        let sign = sigmas(&prob, &pn, !known_sigma);
+        let bic = |chi: f64, p: usize| n * (chi.max(1e-300) / n).ln() + p as f64 * n.ln();
+        let (b1, bn) = (bic(chi1, 1), bic(chin, ns));
+        let precise = pn
+            .iter()
+            .zip(&sign)
+            .all(|(k, s)| *k > 0.0 && s / k < PER_STATE_MAX_REL_SIGMA);
+        if opts.sharing == StateSharing::PerState {
+            reason = "per state by request".to_string();
+            choice = (pn, sign, itn, convn, false);
+        } else if bn < b1 && precise {
+            reason = format!(
+                "per state: BIC {bn:.1} < {b1:.1} (shared) and every per-state rate determined \
+                 to better than {:.0} %",
+                PER_STATE_MAX_REL_SIGMA * 100.0
+            );
+            choice = (pn, sign, itn, convn, false);
+        } else if bn < b1 {
+            reason = format!(
+                "shared: per-state BIC {bn:.1} < {b1:.1} but some per-state rate is undetermined \
+                 (relative σ ≥ {:.0} %)",
+                PER_STATE_MAX_REL_SIGMA * 100.0
+            );
+        } else {
+            reason = format!(
+                "shared: the charging curve does not show state-specific excitation (BIC \
+                 {b1:.1} shared ≤ {bn:.1} per state)"
+            );
+        }
+    }
+    let (p, sig, iterations, converged, shared) = choice;
+    let k = expand(&p, ns);
+    let k_sigma = expand(&sig, ns);
+    let chi2 = prob.chi2(&p);
+    let mut r_max = 0.0_f64;
+    for s in samples {
+        for i in 0..ns {
+            r_max = r_max.max(model.r_and_deriv(i, k[i], s.charge_s).0);
+        }
+    }
+    Ok(BandFit {
+        band: j,
+        k_e_sigma: k_sigma,
+        shared,
+        sharing_reason: reason,
+        source_sum: s_j,
+        r_max,
+        product_only: r_max < SATURATION_MIN,
+        charge_s: prob.t.clone(),
+        data: prob.y.clone(),
+        model: prob.t.iter().map(|t| model.rgb(&k, *t)).collect(),
+        equilibrium: model.equilibrium(&k),
+        rms: (chi2 / n).sqrt(),
+        chi2,
+        iterations,
+        converged,
+        k_e: k,
+    })
+}
+
+/// Simulated charging curve of a fitted band at `charge_s` (for plots).
+pub fn band_curve(
+    material: &Material,
+    camera: &BandCamera,
+    fit: &BandFit,
+    switch_off_delay_s: f64,
+    charge_s: &[f64],
+) -> Vec<[f64; 3]> {
+    let model = Model::new(material, camera, fit.source_sum, switch_off_delay_s);
+    charge_s.iter().map(|t| model.rgb(&fit.k_e, *t)).collect()
+}
+
+/// The material with the fitted k_e written in: measured bands get the fit, unmeasured bands
+/// keep an existing value or 0.
+pub fn apply_excitation(material: &Material, fit: &ExcitationFit) -> Material {
+    let nb = material.bands.len();
+    let mut m = material.clone();
+    for (i, st) in m.states.iter_mut().enumerate() {
+        let mut k = st.k_e.clone().unwrap_or_else(|| vec![0.0; nb]);
+        for b in &fit.bands {
+            if b.band < nb {
+                k[b.band] = b.k_e[i];
+            }
+        }
+        st.k_e = Some(k);
+    }
+    m
+}
+
+/// Mean of a piecewise-linear sampled function over each `[lo, hi]` band, integrated exactly
+/// (zero outside the samples). Used to turn source spectra into per-band irradiance without
+/// leaking a sharp band edge into the neighbouring band.
+pub fn band_means_exact(
+    wavelengths_nm: &[f64],
+    values: &[f64],
+    bands_nm: &[[f64; 2]],
+) -> Result<Vec<f64>> {
+    if wavelengths_nm.len() < 2
+        || wavelengths_nm.len() != values.len()
+        || wavelengths_nm.windows(2).any(|w| !(w[1] > w[0]))
+    {
+        return Err(Error::invalid(
+            "spectrum",
+            "expected at least two samples at strictly increasing wavelengths, one value each",
+        ));
+    }
+    let mut out = Vec::with_capacity(bands_nm.len());
+    for &[lo, hi] in bands_nm {
+        let mut s = 0.0;
+        for k in 0..wavelengths_nm.len() - 1 {
+            let (x0, x1) = (wavelengths_nm[k], wavelengths_nm[k + 1]);
+            let (a, b) = (lo.max(x0), hi.min(x1));
+            if b <= a {
+                continue;
+            }
+            let f = |x: f64| values[k] + (values[k + 1] - values[k]) * (x - x0) / (x1 - x0);
+            s += 0.5 * (f(a) + f(b)) * (b - a);
+        }
+        out.push(s / (hi - lo));
+    }
+    Ok(out)
+}

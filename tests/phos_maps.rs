@@ -1,0 +1,115 @@
+//! Per-pixel decay maps (`phosphor::maps`) and their float TIFF files (`io::maps`), on synthetic
+//! series rendered by `phosphor::synth::DecayFrames`.
+
+use lumifit::capture::{Exposure, FrameInfo, PhotoSeries, RgbFrame, SeriesFrame};
+use lumifit::phosphor::maps::fit_pixel_maps;
+use lumifit::phosphor::synth::{DecayFrames, DecaySeriesSpec, FrameLayout};
+use lumifit::phosphor::{table1_material, BandCamera, DecayFitOptions};
+
+/// Relative tolerance on a median rate over many pixels: each pixel's fit at 0.2 % noise has a
+/// rate error of about 1 %, so the median of ≥ 30 pixels is well inside 3 %.
+const MEDIAN_RATE_TOL: f64 = 0.03;
+
+fn series(layout: FrameLayout, w: usize, h: usize, noise: f64) -> (PhotoSeries, DecayFrames) {
+    let m = &table1_material("green_paint").unwrap().material;
+    let cam = BandCamera::for_bands(&m.bands, None).unwrap();
+    let spec = DecaySeriesSpec {
+        charge_s: 5400.0,
+        frames: 37,
+        interval_s: 5.0,
+        exposure_s: 1.0,
+        noise,
+        seed: 11,
+    };
+    let fr = DecayFrames::new(m, layout, &cam, &spec, w, h).unwrap();
+    let frames = (0..fr.len())
+        .map(|j| {
+            let data = fr.frame(j).unwrap();
+            let sat = vec![0u8; w * h];
+            SeriesFrame {
+                time_s: fr.t_s[j],
+                exposure: Exposure::new(fr.exposure_s, 100.0, 1.0).unwrap(),
+                frame: RgbFrame::new(format!("f{j}"), w, h, 1, data, sat).unwrap(),
+                info: FrameInfo::default(),
+            }
+        })
+        .collect();
+    (PhotoSeries::new(frames).unwrap(), fr)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+#[test]
+fn per_pixel_maps_recover_the_rate_of_each_half_of_a_halves_series() {
+    let (w, h) = (12, 6);
+    let (s, _) = series(FrameLayout::Halves, w, h, 0.002);
+    let maps = fit_pixel_maps(&s, 1, &DecayFitOptions::default(), &|| {}).unwrap();
+    assert_eq!((maps.width, maps.height), (w, h));
+    assert_eq!(maps.n_failed, 0);
+    let left: Vec<usize> = (0..w * h).filter(|i| i % w < w / 2).collect();
+    let right: Vec<usize> = (0..w * h).filter(|i| i % w >= w / 2).collect();
+    // left: green paint, one state at 0.227 /s
+    let k_left = median(
+        left.iter()
+            .map(|&i| f64::from(maps.k_per_s[0][i]))
+            .collect(),
+    );
+    assert!(
+        (k_left / 0.227 - 1.0).abs() < MEDIAN_RATE_TOL,
+        "left k1 = {k_left}"
+    );
+    // right: the two-state variant, 0.227 and 0.0454 /s
+    let n2 = right.iter().filter(|&&i| maps.n_states[i] == 2.0).count();
+    assert!(
+        n2 * 10 >= right.len() * 9,
+        "{n2} of {} two-state",
+        right.len()
+    );
+    let k2_right = median(
+        right
+            .iter()
+            .map(|&i| f64::from(maps.k_per_s[1][i]))
+            .collect(),
+    );
+    assert!(
+        (k2_right / 0.0454 - 1.0).abs() < MEDIAN_RATE_TOL,
+        "right k2 = {k2_right}"
+    );
+}
+
+#[test]
+fn blocks_average_pixels_and_shrink_the_maps() {
+    let (s, _) = series(FrameLayout::Uniform, 10, 7, 0.01);
+    let maps = fit_pixel_maps(&s, 3, &DecayFitOptions::default(), &|| {}).unwrap();
+    assert_eq!((maps.width, maps.height, maps.block), (4, 3, 3));
+    assert_eq!(maps.n_states.len(), 12);
+    assert_eq!(maps.rms.len(), 12);
+}
+
+#[test]
+fn a_block_larger_than_the_frame_is_rejected() {
+    let (s, _) = series(FrameLayout::Uniform, 4, 4, 0.01);
+    let e = fit_pixel_maps(&s, 5, &DecayFitOptions::default(), &|| {}).unwrap_err();
+    assert!(e.to_string().contains("--block"), "{e}");
+}
+
+#[test]
+fn float_maps_read_back_with_the_value_in_every_channel() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("k.tif");
+    let v = vec![0.25f32, f32::NAN, 3.5, -1.0, 1e-6, 7.0];
+    lumifit::io::maps::write_scalar_map(&p, 3, 2, &v).unwrap();
+    let (f, _) = lumifit::io::image::read_image(&p).unwrap();
+    assert_eq!((f.width, f.height), (3, 2));
+    for (i, want) in v.iter().enumerate() {
+        let got = f.rgb(i % 3, i / 3);
+        for g in got {
+            // the reader maps NaN to 0; everything else is stored bit for bit
+            let w = if want.is_nan() { 0.0 } else { *want };
+            assert_eq!(g, w, "pixel {i}");
+        }
+    }
+}
