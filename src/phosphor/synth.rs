@@ -51,45 +51,27 @@ pub struct SyntheticCurve {
     pub saturation_assumed: bool,
 }
 
-/// Deterministic Gaussian generator (SplitMix64 + Box–Muller).
+/// Deterministic Gaussian generator: the capture module's SplitMix64 + Box–Muller generator,
+/// seeded with `seed ^ 0x9E37_79B9_7F4A_7C15` (so a given seed keeps producing the same data).
 #[derive(Debug, Clone)]
-pub struct Gaussian {
-    state: u64,
-    spare: Option<f64>,
-}
+pub struct Gaussian(crate::capture::rng::SplitMix64);
 
 impl Gaussian {
     /// A generator from a seed.
     pub fn new(seed: u64) -> Self {
-        Gaussian {
-            state: seed ^ 0x9E37_79B9_7F4A_7C15,
-            spare: None,
-        }
-    }
-
-    fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        Gaussian(crate::capture::rng::SplitMix64::new(
+            seed ^ 0x9E37_79B9_7F4A_7C15,
+        ))
     }
 
     /// Uniform in (0, 1).
     pub fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        self.0.uniform()
     }
 
     /// Standard normal.
     pub fn normal(&mut self) -> f64 {
-        if let Some(s) = self.spare.take() {
-            return s;
-        }
-        let (u1, u2) = (self.uniform(), self.uniform());
-        let r = (-2.0 * u1.ln()).sqrt();
-        let th = std::f64::consts::TAU * u2;
-        self.spare = Some(r * th.sin());
-        r * th.cos()
+        self.0.normal()
     }
 }
 
