@@ -74,6 +74,35 @@ pub fn solve_tridiagonal(
     Ok(x)
 }
 
+/// Solves a small dense system `A x = b` by Gaussian elimination with partial pivoting
+/// (normal equations of the little Gauss–Newton / LM steps in the domains). `None` when `A` is
+/// singular or the solution is not finite.
+pub fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for col in 0..n {
+        let piv = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[piv][col].abs().is_nan() || a[piv][col].abs() <= 1e-300 {
+            return None;
+        }
+        a.swap(col, piv);
+        b.swap(col, piv);
+        for row in col + 1..n {
+            let f = a[row][col] / a[col][col];
+            let (top, bottom) = a.split_at_mut(row);
+            for (rc, pc) in bottom[0][col..n].iter_mut().zip(&top[col][col..n]) {
+                *rc -= f * pc;
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for row in (0..n).rev() {
+        let s: f64 = (row + 1..n).map(|c| a[row][c] * x[c]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
 fn singular() -> Error {
     Error::Numerical {
         what: "tridiagonal solve".into(),
@@ -123,6 +152,13 @@ pub fn mat3_inv(m: &Mat3) -> Result<Mat3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn dense_solve_pivots_and_reports_singular_systems() {
+        let x = solve_dense(vec![vec![0.0, 2.0], vec![3.0, 1.0]], vec![4.0, 5.0]).unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15);
+        assert!(solve_dense(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0]).is_none());
+    }
 
     #[test]
     fn tridiagonal_solve_handles_a_zero_leading_pivot() {
