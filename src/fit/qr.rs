@@ -100,39 +100,29 @@ impl Qr {
 
     /// `b ← Qᵀ b` (b of length m).
     pub fn qt_mul(&self, b: &mut [f64]) {
-        let m = self.m;
-        for j in 0..self.n.min(m) {
-            if self.beta[j] == 0.0 {
-                continue;
-            }
-            let col = j * m;
-            let mut s = 0.0;
-            for i in j..m {
-                s += self.a[col + i] * b[i];
-            }
-            let f = s * self.beta[j];
-            for i in j..m {
-                b[i] -= f * self.a[col + i];
-            }
+        for j in 0..self.n.min(self.m) {
+            self.apply_reflector(j, b);
         }
     }
 
     /// `b ← Q b` (b of length m).
     pub fn q_mul(&self, b: &mut [f64]) {
+        for j in (0..self.n.min(self.m)).rev() {
+            self.apply_reflector(j, b);
+        }
+    }
+
+    /// `b ← H_j b` with the j-th Householder reflector `H_j = I − β_j v_j v_jᵀ` (its own inverse).
+    fn apply_reflector(&self, j: usize, b: &mut [f64]) {
+        if self.beta[j] == 0.0 {
+            return;
+        }
         let m = self.m;
-        for j in (0..self.n.min(m)).rev() {
-            if self.beta[j] == 0.0 {
-                continue;
-            }
-            let col = j * m;
-            let mut s = 0.0;
-            for i in j..m {
-                s += self.a[col + i] * b[i];
-            }
-            let f = s * self.beta[j];
-            for i in j..m {
-                b[i] -= f * self.a[col + i];
-            }
+        let v = &self.a[j * m + j..j * m + m];
+        let s: f64 = v.iter().zip(&b[j..m]).map(|(v, b)| v * b).sum();
+        let f = s * self.beta[j];
+        for (bi, vi) in b[j..m].iter_mut().zip(v) {
+            *bi -= f * vi;
         }
     }
 

@@ -412,6 +412,18 @@ impl<'a> Problem<'a> {
 }
 
 /// λ increases with px? From the centroids of the blue and red channels' positive signal.
+impl Direction {
+    /// Whether wavelength increases with position: as given, or detected from the profile
+    /// (`Auto`, see [`detect_direction`]).
+    pub(crate) fn is_increasing(self, profile: &Profile) -> Result<bool> {
+        match self {
+            Direction::Auto => detect_direction(profile),
+            Direction::Increasing => Ok(true),
+            Direction::Decreasing => Ok(false),
+        }
+    }
+}
+
 pub(crate) fn detect_direction(profile: &Profile) -> Result<bool> {
     let centroid = |c: usize| {
         let v = &profile.values[c];
@@ -510,11 +522,7 @@ pub fn calibrate_whole_profile(
     opts: &FitOptions,
 ) -> Result<LvfCalibration> {
     check_signal(profile)?;
-    let increasing = match opts.direction {
-        Direction::Auto => detect_direction(profile)?,
-        Direction::Increasing => true,
-        Direction::Decreasing => false,
-    };
+    let increasing = opts.direction.is_increasing(profile)?;
     let sign = if increasing { 1.0 } else { -1.0 };
     let lines: Vec<f64> = lamp.lines.iter().map(|l| l.nm).collect();
 

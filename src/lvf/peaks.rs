@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::lvf::calibration::{
     LineReport, LvfCalibration, MapKind, MapModel, MapSelection, ProfileCurves,
 };
-use crate::lvf::fit::{check_signal, detect_direction, group_lines, Direction, FitOptions};
+use crate::lvf::fit::{check_signal, group_lines, FitOptions};
 use crate::lvf::lamp::Lamp;
 use crate::lvf::profile::Profile;
 
@@ -26,11 +26,7 @@ pub fn calibrate_peaks(
     opts: &FitOptions,
 ) -> Result<LvfCalibration> {
     check_signal(profile)?;
-    let increasing = match opts.direction {
-        Direction::Auto => detect_direction(profile)?,
-        Direction::Increasing => true,
-        Direction::Decreasing => false,
-    };
+    let increasing = opts.direction.is_increasing(profile)?;
     let n = profile.px.len();
     let sum: Vec<f64> = (0..n)
         .map(|i| (0..3).map(|c| profile.values[c][i]).sum())
