@@ -2,30 +2,14 @@
 //! varying exposure, ISO and aperture comes back as the rendered relative radiance within noise,
 //! and bad input exits with code 2 and a message naming the file and the cause.
 
+mod common;
+
+use common::{assert_exit2_mentions, lumifit, stderr};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use lumifit::capture::synth::uniform_frame;
 use lumifit::io::image::frame_to_tiff16;
-
-fn lumifit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumifit"))
-        .args(args)
-        .output()
-        .expect("the lumifit binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).to_string()
-}
-
-fn fails_with(o: &Output, needles: &[&str]) {
-    assert_eq!(o.status.code(), Some(2), "expected exit 2: {}", stderr(o));
-    let e = stderr(o);
-    for n in needles {
-        assert!(e.contains(n), "stderr lacks '{n}': {e}");
-    }
-}
 
 /// Relative radiance per channel of the synthetic decay at time t (s).
 fn radiance(t: f64) -> [f64; 3] {
@@ -136,7 +120,7 @@ fn bad_series_inputs_exit_2_naming_the_file_and_cause() {
         "--out",
         out,
     ]);
-    fails_with(&o, &["extends outside", "frame_00.tiff"]);
+    assert_exit2_mentions(&o, &["extends outside", "frame_00.tiff"]);
     // Manifest naming a missing file.
     std::fs::write(
         d.join("missing.csv"),
@@ -152,7 +136,7 @@ fn bad_series_inputs_exit_2_naming_the_file_and_cause() {
         "--out",
         out,
     ]);
-    fails_with(
+    assert_exit2_mentions(
         &o,
         &["missing.csv", "line 2", "nope.tiff", "does not exist"],
     );
@@ -163,11 +147,11 @@ fn bad_series_inputs_exit_2_naming_the_file_and_cause() {
     )
     .unwrap();
     let o = lumifit(&["series", "inspect", d.join("dup.csv").to_str().unwrap()]);
-    fails_with(&o, &["duplicated", "frame_01.tiff"]);
+    assert_exit2_mentions(&o, &["duplicated", "frame_01.tiff"]);
     // Missing exposure in EXIF and manifest.
     std::fs::write(d.join("noexp.csv"), "file,time_s\nframe_00.tiff,0\n").unwrap();
     let o = lumifit(&["series", "inspect", d.join("noexp.csv").to_str().unwrap()]);
-    fails_with(&o, &["frame_00.tiff", "exposure_s", "missing"]);
+    assert_exit2_mentions(&o, &["frame_00.tiff", "exposure_s", "missing"]);
     // A non-image file and a truncated RAW.
     std::fs::write(d.join("notes.tiff"), "this is not an image").unwrap();
     std::fs::write(
@@ -176,7 +160,7 @@ fn bad_series_inputs_exit_2_naming_the_file_and_cause() {
     )
     .unwrap();
     let o = lumifit(&["series", "inspect", d.join("bad.csv").to_str().unwrap()]);
-    fails_with(&o, &["notes.tiff", "not a readable image"]);
+    assert_exit2_mentions(&o, &["notes.tiff", "not a readable image"]);
     std::fs::write(d.join("cut.dng"), b"II*\0\x08\0\0\0\x01\0").unwrap();
     std::fs::write(
         d.join("cut.csv"),
@@ -184,7 +168,7 @@ fn bad_series_inputs_exit_2_naming_the_file_and_cause() {
     )
     .unwrap();
     let o = lumifit(&["series", "inspect", d.join("cut.csv").to_str().unwrap()]);
-    fails_with(&o, &["cut.dng", "cannot decode", "workaround"]);
+    assert_exit2_mentions(&o, &["cut.dng", "cannot decode", "workaround"]);
     // All-dark and all-saturated regions.
     let dark = uniform_frame("d", 16, 16, [0.0; 3], 0.0, 1).unwrap();
     std::fs::write(d.join("dark.tiff"), frame_to_tiff16(&dark).unwrap()).unwrap();
@@ -209,7 +193,7 @@ fn bad_series_inputs_exit_2_naming_the_file_and_cause() {
             "--out",
             out,
         ]);
-        fails_with(&o, &[needle]);
+        assert_exit2_mentions(&o, &[needle]);
     }
 }
 

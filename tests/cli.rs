@@ -1,15 +1,12 @@
 //! The `lumifit` binary as a user runs it: JSON outputs that agree with colour-science, and bad
 //! input rejected with exit code 2 and a message naming the file, the line and what was expected.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn lumifit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumifit"))
-        .args(args)
-        .output()
-        .expect("the lumifit binary runs")
-}
+use common::{assert_rejected, lumifit, stderr, write};
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
 
 fn lumifit_stdin(args: &[&str], input: &[u8]) -> Output {
     use std::io::Write;
@@ -24,33 +21,9 @@ fn lumifit_stdin(args: &[&str], input: &[u8]) -> Output {
     child.wait_with_output().unwrap()
 }
 
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).to_string()
-}
-
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p
-}
-
 fn json(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "failed: {}", stderr(o));
     serde_json::from_slice(&o.stdout).expect("stdout is JSON")
-}
-
-/// Asserts exit code 2, no panic, and that stderr contains every fragment.
-fn assert_rejected(o: &Output, fragments: &[&str]) {
-    let e = stderr(o);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "expected exit code 2, stderr: {e}"
-    );
-    assert!(!e.contains("panicked"), "panic: {e}");
-    for f in fragments {
-        assert!(e.contains(f), "stderr lacks '{f}': {e}");
-    }
 }
 
 /// A fixture spectrum with colour's expected XYZ for each observer/illuminant/method.
@@ -264,7 +237,7 @@ fn a_binary_file_is_rejected() {
     let p = write(
         dir.path(),
         "image.png",
-        &[
+        [
             0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0x0d, 0xff, 0xfe,
         ],
     );

@@ -1,39 +1,17 @@
 //! `lumifit fluor …` as a user runs it: the `eval --json` contract, presets that read back, and
 //! bad input rejected with exit code 2 and a message naming the file, the line or the field.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn lumifit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumifit"))
-        .args(args)
-        .output()
-        .expect("the lumifit binary runs")
-}
+use common::{assert_rejected, lumifit, stderr, write};
+
+use std::path::Path;
 
 fn synthetic() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/fluor/synthetic.bfc")
         .display()
         .to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).to_string()
-}
-
-fn assert_rejected(o: &Output, fragments: &[&str]) {
-    assert_eq!(o.status.code(), Some(2), "exit code; stderr: {}", stderr(o));
-    let e = stderr(o);
-    for f in fragments {
-        assert!(e.contains(f), "stderr lacks '{f}': {e}");
-    }
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
 }
 
 #[test]
@@ -129,7 +107,7 @@ fn a_bfc_with_a_wrong_row_count_exits_with_code_2() {
     let text = std::fs::read_to_string(synthetic()).unwrap();
     let mut lines: Vec<&str> = text.lines().collect();
     lines.remove(30);
-    let p = write(dir.path(), "short.BFC", &lines.join("\n"));
+    let p = write(dir.path(), "short.BFC", lines.join("\n"));
     assert_rejected(
         &lumifit(&["fluor", "eval", p.to_str().unwrap()]),
         &["short.BFC: line", "emission"],
@@ -144,7 +122,7 @@ fn a_bfc_with_a_non_numeric_cell_exits_with_code_2() {
     let mut f: Vec<String> = lines[20].split('\t').map(String::from).collect();
     f[3] = "n/a".into();
     lines[20] = f.join("\t");
-    let p = write(dir.path(), "bad.BFC", &lines.join("\n"));
+    let p = write(dir.path(), "bad.BFC", lines.join("\n"));
     assert_rejected(
         &lumifit(&[
             "fluor",

@@ -1,18 +1,9 @@
 //! `lumifit synth lvf-hg` → `lumifit lvf calibrate` through the binary: the lvf.json contract,
 //! the plot, and bad input rejected with exit code 2.
 
-use std::process::{Command, Output};
+mod common;
 
-fn lumifit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumifit"))
-        .args(args)
-        .output()
-        .expect("runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).to_string()
-}
+use common::{lumifit, stderr};
 
 /// Same bound as tests/lvf_synthetic.rs at 1 % noise.
 const TOL_NM: f64 = 0.3;

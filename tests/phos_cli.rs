@@ -1,32 +1,11 @@
 //! `lumifit phos` and `lumifit synth phos-decay` as a user runs them: round trip through files,
 //! and bad input rejected with exit code 2 and a message naming the file and the line.
 
+mod common;
+
+use common::{assert_rejected, lumifit, p};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn lumifit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumifit"))
-        .args(args)
-        .output()
-        .expect("the lumifit binary runs")
-}
-
-fn assert_rejected(o: &Output, fragments: &[&str]) {
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "expected exit code 2, stderr: {e}"
-    );
-    assert!(!e.contains("panicked"), "panic: {e}");
-    for f in fragments {
-        assert!(e.contains(f), "stderr lacks '{f}': {e}");
-    }
-}
-
-fn p(dir: &Path, name: &str) -> String {
-    dir.join(name).to_string_lossy().to_string()
-}
 
 #[test]
 fn synth_then_fit_decay_writes_a_preset_a_plot_and_a_batch_csv() {

@@ -2,32 +2,11 @@
 //! user runs them: round trips through files, a preset `preset validate` accepts, and bad
 //! input rejected with exit code 2 naming the file and line.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn lumifit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumifit"))
-        .args(args)
-        .output()
-        .expect("the lumifit binary runs")
-}
+use common::{assert_rejected, lumifit, p};
 
-fn assert_rejected(o: &Output, fragments: &[&str]) {
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "expected exit code 2, stderr: {e}"
-    );
-    assert!(!e.contains("panicked"), "panic: {e}");
-    for f in fragments {
-        assert!(e.contains(f), "stderr lacks '{f}': {e}");
-    }
-}
-
-fn p(dir: &Path, name: &str) -> String {
-    dir.join(name).to_string_lossy().to_string()
-}
+use std::process::Output;
 
 fn ok(o: &Output) -> String {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
