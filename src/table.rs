@@ -34,6 +34,31 @@ impl NumericTable {
     }
 }
 
+/// The bytes as UTF-8 text without NUL bytes, or a parse error naming the line where binary
+/// content starts and saying what was `expected` (e.g. "CSV text with a header row").
+pub fn as_text<'a>(bytes: &'a [u8], source: &str, expected: &str) -> Result<&'a str> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        Error::parse(
+            source,
+            line,
+            format!("not a text file (invalid UTF-8); expected {expected}"),
+        )
+    })?;
+    if let Some(pos) = text.find('\0') {
+        let line = 1 + text[..pos].matches('\n').count();
+        return Err(Error::parse(
+            source,
+            line,
+            format!("not a text file (contains NUL bytes); expected {expected}"),
+        ));
+    }
+    Ok(text)
+}
+
 /// Parses CSV text into a [`NumericTable`]. `source` names the input in errors.
 pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
     if bytes.is_empty() || bytes.iter().all(|b| b.is_ascii_whitespace()) {
@@ -43,25 +68,7 @@ pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
             "file is empty; expected a header row such as 'wavelength_nm,value' and data rows",
         ));
     }
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
-        Error::parse(
-            source,
-            line,
-            "not a text file (invalid UTF-8); expected CSV text with a header row",
-        )
-    })?;
-    if text.contains('\0') {
-        let line = 1 + text[..text.find('\0').unwrap_or(0)].matches('\n').count();
-        return Err(Error::parse(
-            source,
-            line,
-            "not a text file (contains NUL bytes); expected CSV text with a header row",
-        ));
-    }
+    let text = as_text(bytes, source, "CSV text with a header row")?;
     let mut header: Option<Vec<String>> = None;
     let mut columns: Vec<Vec<f64>> = Vec::new();
     let mut lines = Vec::new();

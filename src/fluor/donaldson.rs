@@ -682,17 +682,7 @@ pub fn parse_donaldson_csv(bytes: &[u8], source: &str) -> Result<DonaldsonMatrix
 /// Parses BFC-450 or CSV by content: a BFC file's first non-blank line starts with `VEC_` or
 /// the file names `BFC-450`; anything else is read as CSV.
 pub fn parse_donaldson(bytes: &[u8], source: &str) -> Result<DonaldsonMatrix> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
-        Error::parse(
-            source,
-            line,
-            "not a text file (invalid UTF-8); expected a BFC-450 matrix file or a Donaldson CSV",
-        )
-    })?;
+    let text = crate::table::as_text(bytes, source, "a BFC-450 matrix file or a Donaldson CSV")?;
     let first = text
         .lines()
         .map(str::trim)
