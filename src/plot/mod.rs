@@ -33,6 +33,7 @@ mod fluor;
 mod lvf;
 mod phosphor;
 mod phosphor_excitation;
+pub mod phosphor_sim;
 mod spectra;
 mod text;
 
