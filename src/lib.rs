@@ -7,7 +7,7 @@
 //! |---|---|
 //! | L0 | [`error`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
-//! | L2 | [`fluor`], [`phosphor`], [`lvf`] |
+//! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`] |
 //! | L3 | [`io`], [`preset`], [`plot`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
@@ -24,6 +24,7 @@ pub mod math;
 pub mod phosphor;
 pub mod plot;
 pub mod preset;
+pub mod recovery;
 pub mod spectrum;
 pub mod table;
 

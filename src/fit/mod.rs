@@ -13,6 +13,7 @@
 
 pub mod nnls;
 pub mod qr;
+pub mod regularized;
 pub mod stats;
 pub mod varpro;
 

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 
 pub mod exif;
+pub mod filters;
 pub mod image;
 pub mod maps;
 pub mod raw;

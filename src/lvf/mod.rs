@@ -23,13 +23,17 @@
 //! integers), wavelengths in nm. No colour-science counterpart.
 
 pub mod calibration;
+pub mod capture_synth;
 pub mod fit;
+pub mod geometry;
 pub mod lamp;
 pub mod peaks;
 pub mod profile;
 pub mod synth;
+pub mod transmission;
 
 pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
+pub use geometry::{BandReadings, LvfGeometry};
 pub use fit::{calibrate_whole_profile, FitOptions, MapChoice, Passband};
 pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;

@@ -31,9 +31,11 @@ use crate::error::{Error, Result};
 mod colorchecker;
 mod fluor;
 mod lvf;
+pub mod lvf_bands;
 mod phosphor;
 mod phosphor_excitation;
 pub mod phosphor_sim;
+pub mod recovery;
 mod spectra;
 mod text;
 

@@ -33,6 +33,9 @@ pub enum Command {
     /// Linear variable bandpass filter: wavelength calibration from lamp photos.
     #[command(subcommand)]
     Lvf(crate::commands::lvf::LvfCommand),
+    /// Spectra from captures: recover a light or reflectance spectrum from a photo through the LVF.
+    #[command(subcommand)]
+    Spectrum(crate::commands::spectrum::SpectrumCommand),
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),

@@ -19,6 +19,8 @@ use super::emit;
 pub enum LvfCommand {
     /// Calibrate the position → wavelength map from a photo of a lamp through the LVF.
     Calibrate(CalibrateArgs),
+    /// Solve each band's transmission from photos of a grey target through the LVF and colour gels.
+    Transmission(super::lvf_transmission::TransmissionArgs),
 }
 
 /// Filter axis.
@@ -105,6 +107,7 @@ pub struct CalibrateArgs {
 pub fn run(cmd: LvfCommand) -> Result<()> {
     match cmd {
         LvfCommand::Calibrate(a) => calibrate(&a),
+        LvfCommand::Transmission(a) => super::lvf_transmission::run(&a),
     }
 }
 

@@ -5,10 +5,12 @@ pub mod color;
 pub mod demo;
 pub mod fluor;
 pub mod lvf;
+pub mod lvf_transmission;
 pub mod phos;
 pub mod phos_excitation;
 pub mod preset;
 pub mod series;
+pub mod spectrum;
 pub mod synth;
 pub mod synth_lvf;
 
@@ -68,6 +70,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Synth(SynthCommands::Excitation(c)) => phos_excitation::run_synth(c),
         Command::Series(c) => series::run(c),
         Command::Lvf(c) => lvf::run(c),
+        Command::Spectrum(c) => spectrum::run(c),
         Command::Demo(a) => demo::run(&a),
     }
 }

@@ -1,0 +1,1 @@
+//! Smoothness-regularised (non-negative) least squares with GCV (filled next).

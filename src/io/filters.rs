@@ -1,0 +1,1 @@
+//! Colour-gel transmission tables (filled next).

@@ -1,0 +1,1 @@
+//! Synthetic captures of a continuous spectrum through the LVF (filled next).

@@ -1,0 +1,1 @@
+//! Band transmission calibration from gel photos (filled next).

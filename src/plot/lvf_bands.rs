@@ -1,0 +1,1 @@
+//! Charts of solved LVF band transmissions (filled next).

@@ -1,0 +1,1 @@
+//! Charts of recovered spectra (filled next).

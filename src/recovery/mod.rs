@@ -1,0 +1,1 @@
+//! Spectral recovery from camera readings through the LVF (filled next).
