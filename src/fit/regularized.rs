@@ -68,6 +68,10 @@ pub struct RegularizedOptions {
     pub weight: Weight,
     /// Constrain x ≥ 0.
     pub nonnegative: bool,
+    /// GCV only: search only weights whose effective number of parameters (tr H) is at most this.
+    /// A prior on how much independent information the data can carry: systematic model errors
+    /// (not white noise) otherwise make GCV choose too small a weight and fit them as signal.
+    pub max_effective_parameters: Option<f64>,
 }
 
 impl Default for RegularizedOptions {
@@ -76,6 +80,7 @@ impl Default for RegularizedOptions {
             smoothness: Smoothness::Second,
             weight: Weight::Gcv,
             nonnegative: true,
+            max_effective_parameters: None,
         }
     }
 }
@@ -143,6 +148,8 @@ struct Pencil {
     z: Vec<f64>,
     /// ‖b‖² minus the part of b inside the range of A.
     rss_floor: f64,
+    /// GCV is searched only where tr H ≤ this.
+    max_tr: f64,
 }
 
 impl Pencil {
@@ -180,6 +187,7 @@ impl Pencil {
             q,
             z,
             rss_floor: (btb - inside).max(0.0),
+            max_tr: f64::INFINITY,
         })
     }
 
@@ -206,7 +214,7 @@ impl Pencil {
     fn gcv(&self, lambda: f64, m: usize) -> f64 {
         let (rss, tr) = self.rss_trace(lambda);
         let dof = m as f64 - tr;
-        if dof <= 0.5 {
+        if dof <= 0.5 || tr > self.max_tr {
             return f64::INFINITY;
         }
         m as f64 * rss / (dof * dof)
@@ -374,7 +382,16 @@ pub fn solve_regularized(
     let dtd = d.transpose() * &d;
     let g_trace: f64 = (0..n).map(|j| am.column(j).norm_squared()).sum();
     let s = g_trace / dtd.trace();
-    let pencil = Pencil::new(&am, &dtd, s, &bv)?;
+    let mut pencil = Pencil::new(&am, &dtd, s, &bv)?;
+    if let Some(t) = opts.max_effective_parameters {
+        if !(t > order as f64) {
+            return Err(Error::invalid(
+                "maximum effective parameters",
+                format!("{t}: expected more than the penalty's null space ({order})"),
+            ));
+        }
+        pencil.max_tr = t;
+    }
 
     let mut gcv_curve = Vec::new();
     let lambda = match opts.weight {
@@ -394,7 +411,7 @@ pub fn solve_regularized(
             if !best.0.is_finite() {
                 return Err(Error::Numerical {
                     what: "GCV weight choice".into(),
-                    reason: format!("{m} equations for {n} unknowns leave no degrees of freedom for cross-validation; give the weight explicitly"),
+                    reason: format!("{m} equations for {n} unknowns leave no degrees of freedom for cross-validation within the allowed effective parameters; give the weight explicitly"),
                 });
             }
             let step = (hi - lo) / (steps - 1) as f64;
@@ -448,7 +465,8 @@ pub fn solve_regularized(
         lambda,
         mu,
         gcv: if m as f64 - tr > 0.5 {
-            pencil.gcv(lambda, m)
+            let (rss_u, _) = pencil.rss_trace(lambda);
+            m as f64 * rss_u / (m as f64 - tr).powi(2)
         } else {
             f64::NAN
         },
@@ -590,7 +608,14 @@ mod tests {
             },
         )
         .unwrap();
-        eprintln!("cond {:.3e} λ {:.3e} rms reg {:.4} plain {:.4} trH {:.1}", reg.condition_number, reg.lambda, rms(&reg.x, &truth), rms(&plain.x, &truth), reg.effective_parameters);
+        eprintln!(
+            "cond {:.3e} λ {:.3e} rms reg {:.4} plain {:.4} trH {:.1}",
+            reg.condition_number,
+            reg.lambda,
+            rms(&reg.x, &truth),
+            rms(&plain.x, &truth),
+            reg.effective_parameters
+        );
         assert!(reg.condition_number > 1e4, "cond {}", reg.condition_number);
         let (e_reg, e_plain) = (rms(&reg.x, &truth), rms(&plain.x, &truth));
         assert!(e_reg < 0.03, "regularised rms {e_reg}");

@@ -60,6 +60,9 @@ pub struct RecoveryOptions {
     pub nonnegative: bool,
     /// Penalty operator.
     pub smoothness: Smoothness,
+    /// GCV searches only weights with at most this many effective parameters; `None` = the
+    /// number of bands (see [`recover`]).
+    pub max_effective_parameters: Option<f64>,
 }
 
 impl Default for RecoveryOptions {
@@ -68,6 +71,7 @@ impl Default for RecoveryOptions {
             weight: Weight::Gcv,
             nonnegative: true,
             smoothness: Smoothness::Second,
+            max_effective_parameters: None,
         }
     }
 }
@@ -176,6 +180,14 @@ impl SensingModel {
 /// Recovers the spectrum (or reflectance) from per-band readings `rgb` with optional standard
 /// errors `std`.
 ///
+/// GCV searches only weights whose effective number of parameters is at most the number of
+/// bands (unless [`RecoveryOptions::max_effective_parameters`] says otherwise): the three
+/// channels behind one band add colour, not resolution, and the information below the band
+/// spacing rests on small differences between the channels that band-shape errors of a few
+/// tenths of a nm swamp. Left free, GCV treats those systematic errors as signal, picks a
+/// vanishing weight and returns an oscillating spectrum (measured: 30 % RMS error instead of 4 %
+/// on a 40 nm emission peak with the calibration's parametric bands).
+///
 /// # Errors
 /// [`Error::ShapeMismatch`] when the readings do not match the bands;
 /// [`Error::InvalidArgument`] for an all-zero or non-finite capture, a reflectance weight of the
@@ -259,6 +271,7 @@ pub fn recover(
             smoothness: opts.smoothness,
             weight: opts.weight,
             nonnegative: opts.nonnegative,
+            max_effective_parameters: Some(opts.max_effective_parameters.unwrap_or(nb as f64)),
         },
     )?;
     let step = model.step();
