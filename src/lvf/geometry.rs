@@ -209,21 +209,30 @@ impl LvfGeometry {
     /// Pixel-centre positions (integers) band `j` averages over: |p − px_j| ≤ width_px/2 and
     /// inside the ROI; at least the nearest pixel.
     pub fn window(&self, j: usize) -> Vec<f64> {
-        let b = &self.bands[j];
-        let (lo, hi) = self.axis_extent();
-        let half = b.width_px / 2.0;
-        let first = (b.px - half).ceil().max(lo);
-        let last = (b.px + half).floor().min(hi);
+        let (first, last) = self.window_bounds(j);
         let mut out = Vec::new();
         let mut p = first;
         while p <= last {
             out.push(p);
             p += 1.0;
         }
-        if out.is_empty() {
-            out.push(b.px.round().clamp(lo, hi));
-        }
         out
+    }
+
+    /// First and last pixel centre of band `j`'s window (see [`LvfGeometry::window`]); the one
+    /// rule shared by the parametric bands and [`LvfGeometry::band_readings`].
+    fn window_bounds(&self, j: usize) -> (f64, f64) {
+        let b = &self.bands[j];
+        let (lo, hi) = self.axis_extent();
+        let half = b.width_px / 2.0;
+        let first = (b.px - half).ceil().max(lo);
+        let last = (b.px + half).floor().min(hi);
+        if first <= last {
+            (first, last)
+        } else {
+            let p = b.px.round().clamp(lo, hi);
+            (p, p)
+        }
     }
 
     /// Parametric transmission of band `j` on `grid` (nm): the passband of width `fwhm_nm`
@@ -252,9 +261,11 @@ impl LvfGeometry {
         let mut std = Vec::with_capacity(self.bands.len());
         let mut pixels = Vec::with_capacity(self.bands.len());
         for (j, b) in self.bands.iter().enumerate() {
-            let half = b.width_px / 2.0;
+            // Downsampled frames (RAW half size) have fractional source coordinates: widen by
+            // half a pixel so each source pixel of the window is represented.
+            let (first, last) = self.window_bounds(j);
             let idx: Vec<usize> = (0..profile.px.len())
-                .filter(|&i| (profile.px[i] - b.px).abs() <= half.max(0.5))
+                .filter(|&i| profile.px[i] >= first - 0.5 && profile.px[i] < last + 0.5)
                 .collect();
             if idx.is_empty() {
                 return Err(Error::invalid(
@@ -344,7 +355,10 @@ mod tests {
             .map(|(l, _)| *l)
             .collect();
         let fwhm = above.last().unwrap() - above.first().unwrap();
-        assert!((fwhm - 25.9).abs() < 1.0 && fwhm > 25.0 - 1e-9, "fwhm {fwhm}");
+        assert!(
+            (fwhm - 25.9).abs() < 1.0 && fwhm > 25.0 - 1e-9,
+            "fwhm {fwhm}"
+        );
     }
 
     #[test]

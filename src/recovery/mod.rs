@@ -23,6 +23,9 @@
 //! Layer L2: takes sampled curves, knows nothing of files or of the LVF's geometry (the binary
 //! builds T_j from `lvf.json` or `lvf_bands.json`).
 
+// `!(a > b)` comparisons deliberately reject NaN along with out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::error::{Error, Result};
 use crate::fit::regularized::{
     solve_regularized, RegularizedOptions, RegularizedSolution, Smoothness, Weight,
@@ -48,6 +51,9 @@ pub enum Quantity {
     Reflectance {
         /// Exposure·S(λ) on the grid.
         weight: Vec<f64>,
+        /// Per band and channel gain applied to the model's rows (from a white reference, see
+        /// [`white_gains`]); `None` = 1.
+        gains: Option<Vec<[f64; 3]>>,
     },
 }
 
@@ -230,9 +236,17 @@ pub fn recover(
             "every band reads zero: nothing to recover (lens cap on, wrong ROI or a dark frame?)",
         ));
     }
-    let weight = match quantity {
-        Quantity::Light => None,
-        Quantity::Reflectance { weight } => {
+    let (weight, gains) = match quantity {
+        Quantity::Light => (None, None),
+        Quantity::Reflectance { weight, gains } => {
+            if let Some(g) = gains {
+                if g.len() != nb || g.iter().flatten().any(|v| !(v.is_finite() && *v > 0.0)) {
+                    return Err(Error::invalid(
+                        "white-reference gains",
+                        format!("expected {nb} bands of finite gains > 0"),
+                    ));
+                }
+            }
             if weight.len() != model.grid_nm.len()
                 || weight.iter().any(|v| !v.is_finite() || *v < 0.0)
                 || weight.iter().all(|&v| v == 0.0)
@@ -242,7 +256,7 @@ pub fn recover(
                     "expected finite values ≥ 0 on the grid, not all zero",
                 ));
             }
-            Some(weight.as_slice())
+            (Some(weight.as_slice()), gains.as_ref())
         }
     };
     let n = model.grid_nm.len();
@@ -257,8 +271,9 @@ pub fn recover(
             let s = std.map_or(floor, |s| s[j][c].abs().max(floor));
             sig[r] = s;
             b[r] = rgb[j][c] / s;
+            let g = gains.map_or(1.0, |g| g[j][c]);
             for (i, v) in model.row(j, c, weight).into_iter().enumerate() {
-                a[i * m + r] = v / s;
+                a[i * m + r] = g * v / s;
             }
         }
     }
@@ -338,6 +353,75 @@ pub fn exposure_from_white(
     Ok(num / den)
 }
 
+/// Per band and channel gains that make the model reproduce a white-reference capture exactly:
+/// g_{j,c} = y_{j,c} / Σ ρ S T_j Q_c Δλ. Applied to the rows of a reflectance recovery under the
+/// same light and exposure, they absorb what the band model gets wrong in level — peak
+/// transmission, vignetting, exposure — the way a white reference does in a spectrometer.
+///
+/// Rows the white barely excites (prediction below 0.5 % of the largest) get the median gain of
+/// the well-exposed rows instead of a noisy ratio.
+///
+/// # Errors
+/// [`Error::ShapeMismatch`] for a wrong number of bands; [`Error::InvalidArgument`] when the
+/// white reference reads zero or negative where it should be bright.
+pub fn white_gains(
+    model: &SensingModel,
+    white: &[[f64; 3]],
+    s: &[f64],
+    rho: &[f64],
+) -> Result<Vec<[f64; 3]>> {
+    if white.len() != model.transmission.len() {
+        return Err(Error::ShapeMismatch {
+            what: "white-reference readings versus bands".into(),
+            expected: model.transmission.len(),
+            got: white.len(),
+        });
+    }
+    let w: Vec<f64> = s.iter().zip(rho).map(|(a, b)| a * b).collect();
+    let pred = model.forward(&vec![1.0; s.len()], Some(&w));
+    let pmax = pred.iter().flatten().fold(0.0f64, |a, &v| a.max(v));
+    if !(pmax > 0.0) {
+        return Err(Error::invalid(
+            "--white",
+            "the illuminant gives no signal through the bands",
+        ));
+    }
+    let mut good = Vec::new();
+    for (j, (p, y)) in pred.iter().zip(white).enumerate() {
+        for c in 0..3 {
+            if p[c] >= 5e-3 * pmax {
+                if !(y[c] > 0.0) {
+                    return Err(Error::invalid(
+                        "--white",
+                        format!(
+                            "band {} channel {} reads {} where the white reference should be bright",
+                            j + 1,
+                            ["r", "g", "b"][c],
+                            y[c]
+                        ),
+                    ));
+                }
+                good.push(y[c] / p[c]);
+            }
+        }
+    }
+    good.sort_by(|a, b| a.total_cmp(b));
+    let median = good[good.len() / 2];
+    Ok(pred
+        .iter()
+        .zip(white)
+        .map(|(p, y)| {
+            std::array::from_fn(|c| {
+                if p[c] >= 5e-3 * pmax {
+                    y[c] / p[c]
+                } else {
+                    median
+                }
+            })
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -392,7 +476,10 @@ mod tests {
             &m,
             &y,
             None,
-            &Quantity::Reflectance { weight: ill },
+            &Quantity::Reflectance {
+                weight: ill,
+                gains: None,
+            },
             &RecoveryOptions::default(),
         )
         .unwrap();
