@@ -94,7 +94,7 @@ fn a_batch_with_a_wrong_header_or_duplicated_times_is_rejected_with_the_line() {
 }
 
 #[test]
-fn per_pixel_without_a_series_is_rejected_and_simulate_plot_is_not_implemented_yet() {
+fn per_pixel_without_a_series_is_rejected() {
     let d = tempfile::tempdir().unwrap();
     let o = lumifit(&[
         "phos",
@@ -104,21 +104,6 @@ fn per_pixel_without_a_series_is_rejected_and_simulate_plot_is_not_implemented_y
         &p(d.path(), "maps"),
     ]);
     assert_rejected(&o, &["no series"]);
-    let h = p(d.path(), "h.csv");
-    std::fs::write(&h, "duration_s,r,g,b\n10,1,1,1\n").unwrap();
-    let o = lumifit(&[
-        "phos",
-        "simulate",
-        "--material",
-        "green_paint",
-        "--history",
-        &h,
-        "--out",
-        &p(d.path(), "em.csv"),
-        "--plot",
-        &p(d.path(), "em.png"),
-    ]);
-    assert_rejected(&o, &["not implemented yet"]);
 }
 
 #[test]

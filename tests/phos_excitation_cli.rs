@@ -195,3 +195,114 @@ fn design_writes_an_rgb_preset_and_rejects_targets_before_the_history_starts() {
     ]);
     assert_rejected(&o, &["early.csv", "line 3", "before the history starts"]);
 }
+
+#[test]
+fn series_input_rejects_missing_images_rois_outside_or_missing_and_saturation_with_code_2() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path();
+    ok(&lumifit(&[
+        "synth",
+        "phos-excitation",
+        "--material",
+        "white_paint",
+        "--bands",
+        "3",
+        "--charge-times",
+        "4,64",
+        "--seed",
+        "3",
+        "--out",
+        &p(dir, "ch.csv"),
+        "--images",
+        &p(dir, "ph"),
+    ]));
+    let manifest = std::fs::read_to_string(dir.join("ph/manifest.csv")).unwrap();
+    let (src, cam, out) = (
+        p(dir, "ch.source.csv"),
+        p(dir, "ch.camera.csv"),
+        p(dir, "m.json"),
+    );
+    let fit = |extra: &[&str]| {
+        let mut a = vec!["phos", "fit-excitation", "--material", "white_paint"];
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&["--source", &src, "--camera", &cam, "--out", &out]);
+        lumifit(&a)
+    };
+    let (good_manifest, good_rois) = (p(dir, "ph/manifest.csv"), p(dir, "ph/rois.csv"));
+    // The good input works (and the tests below differ from it in one thing each).
+    ok(&fit(&["--series", &good_manifest, "--rois", &good_rois]));
+    std::fs::remove_file(dir.join("m.json")).unwrap();
+    // A manifest row naming a missing image: the manifest, its line and the image.
+    let lines: Vec<&str> = manifest.lines().collect();
+    assert!(lines[4].starts_with("charge_000.tif,3,"), "{manifest}");
+    let bad = manifest.replacen("charge_000.tif,3,", "nope.tif,3,", 1);
+    std::fs::write(dir.join("ph/missing.csv"), bad).unwrap();
+    let o = fit(&["--series", &p(dir, "ph/missing.csv"), "--rois", &good_rois]);
+    assert_rejected(&o, &["missing.csv", "line 5", "nope.tif", "does not exist"]);
+    // An ROI outside the image (80×32 pixels): the image and the ROI file's line.
+    std::fs::write(
+        dir.join("ph/outside.csv"),
+        "band,x,y,w,h\n1,8,8,16,16\n2,70,8,16,16\n3,56,8,16,16\n",
+    )
+    .unwrap();
+    let o = fit(&[
+        "--series",
+        &good_manifest,
+        "--rois",
+        &p(dir, "ph/outside.csv"),
+    ]);
+    assert_rejected(
+        &o,
+        &["charge_000.tif", "outside.csv line 3", "extends outside"],
+    );
+    let o = fit(&["--series", &good_manifest, "--roi", "0,0,100,10"]);
+    assert_rejected(&o, &["--roi", "extends outside"]);
+    // A band of the manifest without an ROI: the manifest line and the ROI file.
+    std::fs::write(
+        dir.join("ph/two.csv"),
+        "band,x,y,w,h\n1,8,8,16,16\n2,32,8,16,16\n",
+    )
+    .unwrap();
+    let o = fit(&["--series", &good_manifest, "--rois", &p(dir, "ph/two.csv")]);
+    assert_rejected(
+        &o,
+        &["manifest.csv", "line 5", "band 3 has no ROI", "two.csv"],
+    );
+    // A saturated pixel inside an ROI: the image.
+    let (w, h) = (80u32, 32u32);
+    let mut px = vec![2000u16; 3 * (w * h) as usize];
+    px[3 * (10 * w as usize + 10)] = u16::MAX;
+    let tif = lumifit::io::image::encode_tiff16(w, h, &px).unwrap();
+    std::fs::write(dir.join("ph/hot.tif"), tif).unwrap();
+    std::fs::write(
+        dir.join("ph/hot.csv"),
+        "image,band,charge_s,exposure_s,iso,f_number\nhot.tif,1,4,1,100,1\nhot.tif,2,4,1,100,1\n",
+    )
+    .unwrap();
+    let o = fit(&["--series", &p(dir, "ph/hot.csv"), "--rois", &good_rois]);
+    assert_rejected(&o, &["hot.tif", "line 2", "saturated"]);
+    // No exposure anywhere: the image, the line and the field.
+    std::fs::write(
+        dir.join("ph/noexp.csv"),
+        "image,band,charge_s\ncharge_000.tif,1,4\n",
+    )
+    .unwrap();
+    let o = fit(&["--series", &p(dir, "ph/noexp.csv"), "--rois", &good_rois]);
+    assert_rejected(&o, &["noexp.csv", "line 2", "charge_000.tif", "exposure_s"]);
+    // --data and --series are exclusive; --series needs ROIs.
+    let o = fit(&[
+        "--data",
+        &p(dir, "ch.csv"),
+        "--series",
+        &good_manifest,
+        "--roi",
+        "8,8,16,16",
+    ]);
+    assert_rejected(&o, &["--data", "--series"]);
+    let o = fit(&["--series", &good_manifest]);
+    assert_rejected(&o, &["--roi"]);
+    assert!(
+        !dir.join("m.json").exists(),
+        "nothing is written on bad input"
+    );
+}

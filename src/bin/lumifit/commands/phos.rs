@@ -77,7 +77,8 @@ pub struct SimulateArgs {
     /// Output CSV.
     #[arg(long)]
     pub out: PathBuf,
-    /// Plot (not implemented yet for simulate).
+    /// Plot PNG: emission per band (per camera channel with --camera) over time, above the
+    /// irradiance history per band; log axis chosen automatically.
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }
@@ -228,9 +229,6 @@ fn read_history(path: &Path, n_bands: usize) -> Result<Vec<Segment>> {
 }
 
 fn simulate(a: &SimulateArgs) -> Result<()> {
-    if a.plot.is_some() {
-        bail!("--plot for 'phos simulate' is not implemented yet; write the CSV and plot it elsewhere");
-    }
     let material = resolve_material(&a.material)?;
     let history = read_history(&a.history, material.bands.len())?;
     let integrator = match a.integrator {
@@ -247,6 +245,24 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
     };
     let r0 = vec![0.0; material.states.len()];
     let sim = phosphor::simulate(&material, &history, &r0, a.dt, integrator)?;
+    let rgb: Option<Vec<[f64; 3]>> = camera
+        .as_ref()
+        .map(|cam| sim.emission.iter().map(|e| cam.rgb(e)).collect());
+    // The plot first: a bad --plot path fails before the CSV is written.
+    if let Some(p) = &a.plot {
+        lumifit::plot::phosphor_sim::simulate_chart(
+            p,
+            &lumifit::plot::phosphor_sim::SimulateChart {
+                material: &material,
+                integrator,
+                dt_s: a.dt,
+                history: &history,
+                sim: &sim,
+                camera_rgb: rgb.as_deref(),
+            },
+        )
+        .with_context(|| format!("--plot {}", p.display()))?;
+    }
     let mut csv = String::from("time_s");
     let nb = material.bands.len();
     match &material.bands {
@@ -260,7 +276,7 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
     for i in 0..material.states.len() {
         csv.push_str(&format!(",r_{}", i + 1));
     }
-    if camera.is_some() {
+    if rgb.is_some() {
         csv.push_str(",r,g,b");
     }
     csv.push('\n');
@@ -272,8 +288,8 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
         for v in &sim.r[k] {
             csv.push_str(&format!(",{v}"));
         }
-        if let Some(cam) = &camera {
-            for v in cam.rgb(&sim.emission[k]) {
+        if let Some(rgb) = &rgb {
+            for v in rgb[k] {
                 csv.push_str(&format!(",{v}"));
             }
         }
@@ -281,12 +297,16 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
     }
     atomic_write(&a.out, csv.as_bytes())?;
     super::emit(&format!(
-        "wrote {} samples of {} ({} states, {} bands) to {}",
+        "wrote {} samples of {} ({} states, {} bands) to {}{}",
         sim.t_s.len(),
         material.name,
         material.states.len(),
         nb,
-        a.out.display()
+        a.out.display(),
+        a.plot
+            .as_ref()
+            .map(|p| format!(" and the plot to {}", p.display()))
+            .unwrap_or_default()
     ))
 }
 

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{ArgGroup, Args, Subcommand, ValueEnum};
 use lumifit::io::{atomic_write, read_input, spectrum_csv::read_multi_spectrum};
 use lumifit::phosphor::design::{
     design_from_keyframes, DesignOptions, DesignStage, IrradianceHistory, Keyframe,
@@ -16,13 +16,15 @@ use lumifit::phosphor::excitation::{
 };
 use lumifit::phosphor::{BandCamera, BandSet, Material};
 use lumifit::preset::{
-    read_material, write_preset, Bands, MaterialPreset, PhosphorescenceSection,
+    read_material, write_preset, Bands, InputFile, MaterialPreset, PhosphorescenceSection,
     PhosphorescentState, Provenance,
 };
 use lumifit::table::parse_numeric_csv;
 use lumifit::Error;
 
 use super::phos::resolve_material;
+
+mod series;
 
 /// Excitation-rate fitting and design from keyframes (flattened into `lumifit phos`).
 #[derive(Debug, Subcommand)]
@@ -54,13 +56,29 @@ pub enum SharingArg {
 
 /// `lumifit phos fit-excitation`.
 #[derive(Debug, Args)]
+#[command(group(ArgGroup::new("charging").required(true).args(["data", "series"])))]
+#[command(group(ArgGroup::new("series_rois").args(["roi", "rois"])))]
 pub struct FitExcitationArgs {
     /// Material preset JSON with k_r and Λ from the decay fit (or a Table 1 name).
     #[arg(long)]
     pub material: String,
     /// Charging data CSV `band,charge_s,r,g,b[,std]` (band 1-based).
     #[arg(long)]
-    pub data: PathBuf,
+    pub data: Option<PathBuf>,
+    /// Instead of --data: photographs listed in a manifest CSV
+    /// `image,band,charge_s[,exposure_s,iso,f_number]` (paths relative to the manifest; RAW,
+    /// 16-bit TIFF/PNG, float TIFF/EXR), measured in --roi or --rois.
+    #[arg(long, requires = "series_rois")]
+    pub series: Option<PathBuf>,
+    /// With --series: one region `x,y,w,h` (source pixels) for every band.
+    #[arg(long, requires = "series")]
+    pub roi: Option<String>,
+    /// With --series: regions per band, CSV `band,x,y,w,h` (one ROI per band under the LVF).
+    #[arg(long, requires = "series")]
+    pub rois: Option<PathBuf>,
+    /// With --series: dark frame(s), averaged and subtracted from every image.
+    #[arg(long, requires = "series")]
+    pub dark: Vec<PathBuf>,
     /// Source spectra CSV `wavelength_nm,band1,band2,…` (one column per excitation band).
     #[arg(long)]
     pub source: PathBuf,
@@ -105,7 +123,8 @@ pub struct DesignArgs {
     /// Output material preset JSON.
     #[arg(long)]
     pub out: PathBuf,
-    /// Plot (not implemented yet for design).
+    /// Plot PNG: irradiance history, designed outgoing radiance per channel (grid optimum
+    /// dashed), targets at the keyframes and every keyframe's residual.
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }
@@ -138,6 +157,12 @@ pub struct SynthExcitationArgs {
     /// Output CSV; `<stem>.source.csv` (and `<stem>.camera.csv`) are written beside it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also render the same samples as photographs into this folder: one 16-bit TIFF per
+    /// charging time with one patch per band (as under the LVF), `manifest.csv`, `rois.csv` and
+    /// `dark.tif` — the input of `phos fit-excitation --series DIR/manifest.csv --rois
+    /// DIR/rois.csv --dark DIR/dark.tif`.
+    #[arg(long)]
+    pub images: Option<PathBuf>,
 }
 
 /// Runs a `lumifit phos` excitation/design subcommand.
@@ -308,12 +333,52 @@ fn read_camera(path: &Path, m: &Material) -> Result<BandCamera> {
 fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
     let material = resolve_material(&a.material)?;
     let ranges = wavelength_ranges(&material)?.to_vec();
-    let data = read_data(&a.data, ranges.len())?;
+    // The charging data: a CSV, or photographs + ROIs (clap makes them exclusive).
+    let (data, data_path, data_files, series_report) = match (&a.data, &a.series) {
+        (Some(d), None) => (
+            read_data(d, ranges.len())?,
+            d.clone(),
+            vec![d.clone()],
+            None,
+        ),
+        (None, Some(m)) => {
+            let rois = match (&a.roi, &a.rois) {
+                (Some(r), None) => series::RoiSource::One(r),
+                (None, Some(f)) => series::RoiSource::PerBand(f),
+                _ => bail!("--series needs either --roi x,y,w,h or --rois FILE.csv"),
+            };
+            let s = series::load(m, rois, &a.dark, ranges.len())?;
+            for w in &s.warnings {
+                eprintln!("warning: {w}");
+            }
+            (s.samples, m.clone(), s.inputs, Some(s.report))
+        }
+        _ => bail!("give the charging data either as --data FILE.csv or as --series MANIFEST.csv"),
+    };
     let mut bands: Vec<usize> = data.iter().map(|s| s.band).collect();
     bands.sort_unstable();
     bands.dedup();
     let sources = read_sources(&a.source, &ranges, &bands)?;
     let camera = read_camera(&a.camera, &material)?;
+    // Λ must be in the camera's units for y = C Λ k_r r to compare with the data; a
+    // `phos fit-decay --spectrum` preset records its RGB fit, which fixes that scale.
+    let mut material = material;
+    let lambda_scale = decay_fit_lambda_scale(&a.material, &material, &camera)?;
+    let rescaled = lambda_scale.filter(|s| (s - 1.0).abs() > LAMBDA_SCALE_TOLERANCE);
+    if let Some(s) = rescaled {
+        eprintln!(
+            "warning: {}: camera·Λ·k_r does not reproduce the preset's own decay fit through {} \
+             (Λ off by a factor {:.4}); Λ rescaled by {s:.6} before fitting k_e",
+            a.material,
+            a.camera.display(),
+            1.0 / s
+        );
+        for st in &mut material.states {
+            for l in &mut st.lambda {
+                *l *= s;
+            }
+        }
+    }
     let opts = ExcitationOptions {
         switch_off_delay_s: a.switch_off_delay_s,
         sharing: match a.states {
@@ -324,9 +389,24 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
         ..ExcitationOptions::default()
     };
     let fit = fit_excitation(&material, &camera, &sources, &data, &opts)
-        .with_context(|| format!("{}: excitation fit", a.data.display()))?;
+        .with_context(|| format!("{}: excitation fit", data_path.display()))?;
     let updated = apply_excitation(&material, &fit);
-    let report = fit_report(&fit);
+    let mut report = fit_report(&fit);
+    if let Some(obj) = report.as_object_mut() {
+        if let Some(sr) = series_report {
+            obj.insert("series".into(), sr);
+        }
+        if let Some(s) = lambda_scale {
+            obj.insert(
+                "lambda_camera_scale".into(),
+                serde_json::json!({
+                    "factor": s,
+                    "applied": rescaled.is_some(),
+                    "note": "least-squares factor making camera·Λ_i·k_r,i equal the RGB amplitudes of the preset's decay fit (extra.decay_fit); applied to Λ when it differs from 1 by more than 1 %",
+                }),
+            );
+        }
+    }
     // Provenance: every input with its hash.
     let mut inputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     let mat_path = Path::new(&a.material);
@@ -336,17 +416,25 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
     } else {
         None
     };
-    for p in [&a.data, &a.source, &a.camera] {
+    for p in [&a.source, &a.camera] {
         inputs.push((p.clone(), read_input(p)?.0));
     }
     let refs: Vec<(&PathBuf, &[u8])> = inputs.iter().map(|(p, b)| (p, &b[..])).collect();
     let worst_rms = fit.bands.iter().fold(0.0_f64, |m, b| m.max(b.rms));
-    let provenance = Provenance::new("lumifit phos fit-excitation", &refs).with_fit_quality(
+    let mut provenance = Provenance::new("lumifit phos fit-excitation", &refs).with_fit_quality(
         serde_json::json!({
             "excitation_rms_max": worst_rms,
             "product_only_bands": fit.bands.iter().filter(|b| b.product_only).map(|b| b.band + 1).collect::<Vec<_>>(),
         }),
     );
+    // The data files (with --series possibly many large images) are hashed one at a time and
+    // listed after the material.
+    let data_inputs = data_files
+        .iter()
+        .map(InputFile::from_file)
+        .collect::<lumifit::Result<Vec<_>>>()?;
+    let at = usize::from(base.is_some());
+    provenance.inputs.splice(at..at, data_inputs);
     let mut preset = match base {
         Some(mut p) => {
             if let Some(old) = p.provenance.fit_quality.take() {
@@ -384,6 +472,9 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
                 .cloned()
                 .unwrap_or_else(|| PhosphorescentState::new(s.k_r_per_s, None, s.lambda.clone()));
             st.k_e = s.k_e.clone();
+            if rescaled.is_some() {
+                st.lambda = s.lambda.clone();
+            }
             st
         })
         .collect();
@@ -402,6 +493,58 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
         )?;
     }
     super::emit(&serde_json::to_string_pretty(&report)?)
+}
+
+/// Relative deviation from 1 above which [`decay_fit_lambda_scale`] is applied to Λ: the decay
+/// fit determines its amplitudes to a fraction of a percent at 1 % noise, so a larger factor
+/// is a units mismatch, not noise.
+const LAMBDA_SCALE_TOLERANCE: f64 = 0.01;
+
+/// For a preset written by `phos fit-decay` (it records `extra.decay_fit` with the RGB
+/// amplitudes of every state at switch-off), the factor s minimising
+/// Σ_i Σ_c (s·(C Λ_i k_r,i)_c − a_i,c)²: Λ·s then reproduces the decay fit through this
+/// camera. `fit-decay --spectrum` scales the band spectrum to a maximum of 1 without a camera,
+/// so its Λ is in units of the RGB fit's brightest channel, not the camera's. `None` when the
+/// material is not such a preset (a Table 1 name, or no decay-fit record matching the states).
+fn decay_fit_lambda_scale(
+    material_arg: &str,
+    material: &Material,
+    camera: &BandCamera,
+) -> Result<Option<f64>> {
+    let path = Path::new(material_arg);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let preset = read_material(path)?;
+    let Some(states) = preset
+        .phosphorescence
+        .as_ref()
+        .and_then(|s| s.extra.get("decay_fit"))
+        .and_then(|f| f.get("states"))
+        .and_then(|v| v.as_array())
+    else {
+        return Ok(None);
+    };
+    if states.len() != material.states.len() {
+        return Ok(None);
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for (st, m) in states.iter().zip(&material.states) {
+        let amps: Option<Vec<f64>> = st
+            .get("channel_amplitudes")
+            .and_then(|v| v.as_array())
+            .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
+        let Some(amps) = amps.filter(|a| a.len() == 3) else {
+            return Ok(None);
+        };
+        let emission: Vec<f64> = m.lambda.iter().map(|l| l * m.k_r_per_s).collect();
+        let model = camera.rgb(&emission);
+        for c in 0..3 {
+            num += amps[c] * model[c];
+            den += model[c] * model[c];
+        }
+    }
+    Ok((den > 0.0 && num > 0.0 && (num / den).is_finite()).then_some(num / den))
 }
 
 fn fit_report(fit: &ExcitationFit) -> serde_json::Value {
@@ -470,6 +613,17 @@ fn synth_cmd(a: &SynthExcitationArgs) -> Result<()> {
         );
     }
     let times = parse_times(&a.charge_times)?;
+    if a.images.is_some() {
+        let mut sorted = times.clone();
+        sorted.sort_by(f64::total_cmp);
+        if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+            bail!(
+                "--charge-times: {} s is listed twice; with --images every charging time is one \
+                 image, so the times must differ",
+                w[0]
+            );
+        }
+    }
     // Box sources, one per band, with sharp edges (ramps of 1e-6 nm), written and read back.
     let eps = 1e-6;
     let mut grid: Vec<f64> = Vec::new();
@@ -524,6 +678,13 @@ fn synth_cmd(a: &SynthExcitationArgs) -> Result<()> {
         a.noise,
         a.seed,
     )?;
+    let rendered = match &a.images {
+        Some(dir) => Some(
+            series::render_images(dir, &samples, a.bands, &times, a.seed)
+                .with_context(|| format!("rendering images into {}", dir.display()))?,
+        ),
+        None => None,
+    };
     let mut csv = String::from("band,charge_s,r,g,b,std\n");
     for s in &samples {
         let [r, g, b] = s.rgb;
@@ -535,8 +696,21 @@ fn synth_cmd(a: &SynthExcitationArgs) -> Result<()> {
         ));
     }
     atomic_write(&a.out, csv.as_bytes())?;
+    let images = match (&a.images, &rendered) {
+        (Some(dir), Some(r)) => format!(
+            "; {} images of {}×{} pixels (patches of {} px, dark level {} of 65535) with \
+             manifest.csv, rois.csv and dark.tif in {}",
+            r.images,
+            r.size.0,
+            r.size.1,
+            series::PATCH_PX,
+            series::PEDESTAL_DN,
+            dir.display()
+        ),
+        _ => String::new(),
+    };
     super::emit(&format!(
-        "wrote {} samples ({} bands × {} charge times) of {} to {}, sources to {}, camera {}",
+        "wrote {} samples ({} bands × {} charge times) of {} to {}, sources to {}, camera {}{images}",
         samples.len(),
         a.bands,
         times.len(),
@@ -583,9 +757,6 @@ fn read_rgb_rows(path: &Path, cols: [&str; 3], what: &str) -> Result<RgbRows> {
 }
 
 fn design_cmd(a: &DesignArgs) -> Result<()> {
-    if a.plot.is_some() {
-        bail!("--plot for 'phos design' is not implemented yet; the report lists every keyframe");
-    }
     let albedo = super::parse_triplet("--albedo", &a.albedo)?;
     if albedo.iter().any(|v| *v < 0.0) {
         bail!("--albedo: {:?}; expected values ≥ 0", albedo);
@@ -641,6 +812,21 @@ fn design_cmd(a: &DesignArgs) -> Result<()> {
         refine: !a.grid_only,
     };
     let d = design_from_keyframes(&hist, &keys, &opts)?;
+    // The plot before the preset: a bad --plot path fails before anything is written.
+    if let Some(p) = &a.plot {
+        lumifit::plot::phosphor_sim::design_chart(
+            p,
+            &lumifit::plot::phosphor_sim::DesignChart {
+                name: &a.name,
+                history: &hist,
+                keyframes: &keys,
+                albedo,
+                design: &d,
+                refined: !a.grid_only,
+            },
+        )
+        .with_context(|| format!("--plot {}", p.display()))?;
+    }
     let mut sorted = keys.clone();
     sorted.sort_by(|x, y| x.t_s.total_cmp(&y.t_s));
     let stage = |s: &DesignStage| {
