@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{assert_rejected, lumifit, p};
+use common::{assert_rejected, lumifit, p, stderr};
 
 use std::path::Path;
 
@@ -145,4 +145,38 @@ fn simulate_writes_emission_and_rejects_a_history_with_the_wrong_band_count() {
         &out,
     ]);
     assert_rejected(&o, &["h.csv", "line 1", "8 bands"]);
+}
+
+#[test]
+fn a_noise_free_curve_is_fitted_exactly_despite_its_vanishing_std() {
+    // synth writes σ ≈ 1e-154 for a noise-free curve; the weights 1/σ² must not overflow.
+    let d = tempfile::tempdir().unwrap();
+    let dir = p(d.path(), "nf");
+    let o = lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        "white_paint",
+        "--noise",
+        "0",
+        "--curve-only",
+        "--seed",
+        "1",
+        "--out",
+        &dir,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = p(d.path(), "nf.json");
+    let o = lumifit(&[
+        "phos",
+        "fit-decay",
+        &format!("{dir}/curve.csv"),
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let k = v["states"][0]["k_r_per_s"].as_f64().unwrap();
+    assert_eq!(v["states"].as_array().unwrap().len(), 1);
+    assert!((k - 0.047).abs() < 1e-9, "k_r {k}");
 }

@@ -123,6 +123,11 @@ pub struct FitDecayArgs {
     /// Number of uniform bands over 400–700 nm for --spectrum.
     #[arg(long, default_value_t = 8)]
     pub bands: usize,
+    /// With --spectrum: camera sensitivities CSV `wavelength_nm,r,g,b` that recorded the curve,
+    /// so that the re-radiation functions reproduce the measured RGB amplitudes (default: the
+    /// ideal box camera B 400–500, G 500–600, R 600–700 nm used by `phos simulate`).
+    #[arg(long)]
+    pub camera: Option<PathBuf>,
     /// Material name written into the preset.
     #[arg(long)]
     pub name: Option<String>,
@@ -365,8 +370,20 @@ pub fn read_curve(path: &Path) -> Result<DecayCurve> {
         (_, Some(i)) => Some(t.columns[i].iter().map(|w| 1.0 / w.sqrt()).collect()),
         _ => None,
     };
-    let channels = chans.iter().map(|&c| t.columns[c].clone()).collect();
+    let channels: Vec<Vec<f64>> = chans.iter().map(|&c| t.columns[c].clone()).collect();
+    let sigma = sigma.map(|s| floor_sigma(s, &channels));
     DecayCurve::new(t.columns[ti].clone(), channels, sigma).map_err(|e| anyhow!("{source}: {e}"))
+}
+
+/// Floors per-sample σ at 1e-9 of the largest |value| (the digits a double-precision curve
+/// carries): a noise-free synthetic curve's σ ≈ 1e-154 would otherwise overflow the weights 1/σ².
+fn floor_sigma(sigma: Vec<f64>, channels: &[Vec<f64>]) -> Vec<f64> {
+    let ymax = channels
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let floor = 1e-9 * ymax;
+    sigma.into_iter().map(|v| v.max(floor)).collect()
 }
 
 fn check_rows(
@@ -525,6 +542,7 @@ fn fit_and_write(
     } else {
         vec![]
     };
+    let mut lambda_scale = None;
     let (bands, states) = match &a.spectrum {
         Some(sp) => {
             let sd = lumifit::io::spectrum_csv::read_spectrum(sp)?;
@@ -533,7 +551,42 @@ fn fit_and_write(
             };
             let spec = band_spectrum(sd.wavelengths(), sd.values(), &ranges)?;
             inputs.push((sp.clone(), read_input(sp)?.0));
-            (Bands::RangesNm(ranges), reradiation_functions(&fit, &spec))
+            let sens = match &a.camera {
+                Some(c) => {
+                    inputs.push((c.clone(), read_input(c)?.0));
+                    Some(read_multi_spectrum(c)?)
+                }
+                None => None,
+            };
+            let camera = BandCamera::for_bands(&BandSet::RangesNm(ranges.clone()), sens.as_ref())?;
+            let mut states = reradiation_functions(&fit, &spec);
+            // Λ* is normalised to max 1; scale it so that the camera sees the measured RGB
+            // amplitudes: camera·(Λ_i k_r,i) ≈ a_i·spectrum_rgb in least squares.
+            let (mut num, mut den) = (0.0, 0.0);
+            for ((k, l), st) in states.iter().zip(&fit.states) {
+                let emission: Vec<f64> = l.iter().map(|v| v * k).collect();
+                let model = camera.rgb(&emission);
+                for c in 0..3.min(st.channel_amplitudes.len()) {
+                    num += st.channel_amplitudes[c] * model[c];
+                    den += model[c] * model[c];
+                }
+            }
+            if curve.channels.len() == 3 {
+                if !(den > 0.0 && num > 0.0) {
+                    bail!(
+                        "{}: the emission spectrum gives no signal in the camera's channels; check --spectrum and --camera",
+                        sp.display()
+                    );
+                }
+                let scale = num / den;
+                for (_, l) in states.iter_mut() {
+                    for v in l.iter_mut() {
+                        *v *= scale;
+                    }
+                }
+                lambda_scale = Some(scale);
+            }
+            (Bands::RangesNm(ranges), states)
         }
         None => {
             if curve.channels.len() != 3 {
@@ -543,6 +596,16 @@ fn fit_and_write(
         }
     };
     let mut report = fit_report(&fit);
+    if let (Some(k), Some(obj)) = (lambda_scale, report.as_object_mut()) {
+        obj.insert(
+            "lambda_camera_scale".into(),
+            serde_json::json!({
+                "value": k,
+                "camera": a.camera.as_ref().map_or("ideal box camera (B 400–500, G 500–600, R 600–700 nm)".to_string(), |p| p.display().to_string()),
+                "meaning": "lambda = a_i * spectrum / k_r,i * value, so that the camera sees the measured RGB amplitudes",
+            }),
+        );
+    }
     if let (Some(r), Some(obj)) = (&roi, report.as_object_mut()) {
         obj.insert("roi".into(), serde_json::json!(r));
         obj.insert(
