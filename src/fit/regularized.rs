@@ -31,6 +31,7 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use super::nnls::nnls;
 use super::qr::Qr;
 use crate::error::{Error, Result};
+use crate::math::minimize::golden_min;
 
 /// Order of the difference operator in the penalty.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -297,30 +298,20 @@ pub fn fwhm_samples(row: &[f64], centre: usize) -> f64 {
     }
 }
 
-fn golden(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..60 {
-        if (b - a).abs() < 1e-4 {
-            break;
-        }
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
+/// Ratio of the extreme singular values of the column-major m × n matrix `a` (∞ when it is
+/// rank-deficient or has fewer rows than columns; NaN when empty).
+pub fn condition_number(a: &[f64], m: usize, n: usize) -> f64 {
+    if m == 0 || n == 0 {
+        return f64::NAN;
     }
-    (a + b) / 2.0
+    let sv = DMatrix::from_column_slice(m, n, a).singular_values();
+    let smax = sv.iter().cloned().fold(0.0, f64::max);
+    let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
+    if m >= n && smin > smax * 1e-15 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Solves the regularised problem for column-major `a` (m × n) and `b` (m).
@@ -365,14 +356,7 @@ pub fn solve_regularized(
     }
     let am = DMatrix::from_column_slice(m, n, a);
     let bv = DVector::from_column_slice(b);
-    let sv = am.singular_values();
-    let smax = sv.iter().cloned().fold(0.0, f64::max);
-    let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
-    let condition_number = if smin > smax * 1e-15 && m >= n {
-        smax / smin
-    } else {
-        f64::INFINITY
-    };
+    let condition_number = condition_number(a, m, n);
 
     if opts.weight == Weight::Fixed(0.0) {
         return plain(a, m, n, b, opts.nonnegative, condition_number);
@@ -415,10 +399,11 @@ pub fn solve_regularized(
                 });
             }
             let step = (hi - lo) / (steps - 1) as f64;
-            let e = golden(
+            let e = golden_min(
                 |e| pencil.gcv(10f64.powf(e), m),
                 (best.1 - step).max(lo),
                 (best.1 + step).min(hi),
+                1e-4,
             );
             10f64.powf(e)
         }

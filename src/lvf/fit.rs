@@ -18,6 +18,7 @@ use crate::lvf::calibration::{
 };
 use crate::lvf::lamp::Lamp;
 use crate::lvf::profile::Profile;
+use crate::math::minimize::golden_min;
 
 /// Passband shape g(Δλ).
 #[derive(Debug, Clone, PartialEq)]
@@ -806,30 +807,6 @@ fn covariance(jac: &DMatrix<f64>, sse: f64, dof: f64) -> Option<DMatrix<f64>> {
     let a = jac.transpose() * jac;
     let inv = a.try_inverse()?;
     Some(inv * (sse / dof))
-}
-
-/// Golden-section minimisation of a unimodal function on [a, b].
-fn golden_min(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, tol: f64) -> f64 {
-    let r = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - r * (b - a);
-    let mut d = a + r * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    while (b - a).abs() > tol {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - r * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + r * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
 }
 
 #[cfg(test)]

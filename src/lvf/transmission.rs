@@ -63,7 +63,9 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::fit::regularized::{solve_regularized, RegularizedOptions, Smoothness, Weight};
+use crate::fit::regularized::{
+    condition_number, solve_regularized, RegularizedOptions, Smoothness, Weight,
+};
 use crate::lvf::geometry::{BandReadings, LvfGeometry};
 
 /// Schema tag of `lvf_bands.json`.
@@ -779,21 +781,6 @@ pub struct TransmissionDiagnostics {
     pub at_bound: Vec<usize>,
 }
 
-/// Singular-value condition number of a column-major m×n matrix (∞ when rank-deficient).
-fn condition(a: &[f64], m: usize, n: usize) -> f64 {
-    if m == 0 || n == 0 {
-        return f64::NAN;
-    }
-    let sv = DMatrix::from_column_slice(m, n, a).singular_values();
-    let smax = sv.iter().cloned().fold(0.0, f64::max);
-    let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
-    if m >= n && smin > smax * 1e-15 {
-        smax / smin
-    } else {
-        f64::INFINITY
-    }
-}
-
 /// The per-row base vectors B_{(k,c),q} = Δλ·S R F_k Q_c on the quadrature grid (row-major).
 struct Design {
     rows: usize,
@@ -1034,7 +1021,7 @@ pub fn solve_transmissions(
     let a_full = design.on_grid(&problem.quad_nm, grid);
     let m = design.rows;
     let n = grid.len();
-    let cond_full = condition(&a_full, m, n);
+    let cond_full = condition_number(&a_full, m, n);
     // Wavelengths where the gels differ from their end values (outside, all are held constant).
     let gel_range = gel_varying_range(problem);
     let cond_gel = gel_range.and_then(|(lo, hi)| {
@@ -1048,7 +1035,7 @@ pub fn solve_transmissions(
             .iter()
             .flat_map(|&i| a_full[i * m..(i + 1) * m].to_vec())
             .collect();
-        Some(condition(&sub, m, cols.len()))
+        Some(condition_number(&sub, m, cols.len()))
     });
     let pixel_sigma = pixel_noise(problem);
     let mut bands = Vec::with_capacity(nb);
@@ -1212,7 +1199,7 @@ fn solve_band(
 ) -> Result<BandSolution> {
     let am = DMatrix::from_column_slice(m, n, a);
     let bv = nalgebra::DVector::from_column_slice(b);
-    let condition_number = condition(a, m, n);
+    let condition_number = condition_number(a, m, n);
     let d = padded_second_difference(n, pad);
     let dtd = d.transpose() * &d;
     let ata = am.transpose() * &am;
@@ -1737,7 +1724,7 @@ fn parametric_band(
             std,
             rms_residual: Some(rms),
             lambda: None,
-            condition_number: Some(condition(jac.as_slice(), m, np + 1)),
+            condition_number: Some(condition_number(jac.as_slice(), m, np + 1)),
             support_nm: None,
             n_clamped: None,
         },

@@ -3,3 +3,4 @@
 
 pub mod interpolation;
 pub mod linalg;
+pub mod minimize;

@@ -316,6 +316,25 @@ pub fn recover(
     })
 }
 
+/// What the model predicts for a white reference of reflectance `rho` under `s` (exposure 1),
+/// after checking the readings' band count.
+fn white_prediction(
+    model: &SensingModel,
+    white: &[[f64; 3]],
+    s: &[f64],
+    rho: &[f64],
+) -> Result<Vec<[f64; 3]>> {
+    if white.len() != model.transmission.len() {
+        return Err(Error::ShapeMismatch {
+            what: "white-reference readings versus bands".into(),
+            expected: model.transmission.len(),
+            got: white.len(),
+        });
+    }
+    let w: Vec<f64> = s.iter().zip(rho).map(|(a, b)| a * b).collect();
+    Ok(model.forward(&vec![1.0; s.len()], Some(&w)))
+}
+
 /// The exposure factor k that best explains a white-reference capture `white` of reflectance
 /// `rho` (on the grid) under the illuminant shape `s` (on the grid): least squares of
 /// y ≈ k · Σ ρ S T Q Δλ over all bands and channels.
@@ -328,15 +347,7 @@ pub fn exposure_from_white(
     s: &[f64],
     rho: &[f64],
 ) -> Result<f64> {
-    if white.len() != model.transmission.len() {
-        return Err(Error::ShapeMismatch {
-            what: "white-reference readings versus bands".into(),
-            expected: model.transmission.len(),
-            got: white.len(),
-        });
-    }
-    let w: Vec<f64> = s.iter().zip(rho).map(|(a, b)| a * b).collect();
-    let pred = model.forward(&vec![1.0; s.len()], Some(&w));
+    let pred = white_prediction(model, white, s, rho)?;
     let (mut num, mut den) = (0.0, 0.0);
     for (p, y) in pred.iter().zip(white) {
         for c in 0..3 {
@@ -370,15 +381,7 @@ pub fn white_gains(
     s: &[f64],
     rho: &[f64],
 ) -> Result<Vec<[f64; 3]>> {
-    if white.len() != model.transmission.len() {
-        return Err(Error::ShapeMismatch {
-            what: "white-reference readings versus bands".into(),
-            expected: model.transmission.len(),
-            got: white.len(),
-        });
-    }
-    let w: Vec<f64> = s.iter().zip(rho).map(|(a, b)| a * b).collect();
-    let pred = model.forward(&vec![1.0; s.len()], Some(&w));
+    let pred = white_prediction(model, white, s, rho)?;
     let pmax = pred.iter().flatten().fold(0.0f64, |a, &v| a.max(v));
     if !(pmax > 0.0) {
         return Err(Error::invalid(
