@@ -566,9 +566,9 @@ fn fit_and_write(
             for ((k, l), st) in states.iter().zip(&fit.states) {
                 let emission: Vec<f64> = l.iter().map(|v| v * k).collect();
                 let model = camera.rgb(&emission);
-                for c in 0..3.min(st.channel_amplitudes.len()) {
-                    num += st.channel_amplitudes[c] * model[c];
-                    den += model[c] * model[c];
+                for (a, m) in st.channel_amplitudes.iter().zip(model) {
+                    num += a * m;
+                    den += m * m;
                 }
             }
             if curve.channels.len() == 3 {

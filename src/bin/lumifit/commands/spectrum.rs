@@ -1,6 +1,9 @@
 //! `lumifit spectrum recover`: the spectrum of the light (or a reflectance factor) from one photo
 //! through the calibrated LVF.
 
+// `!(a > b)` comparisons deliberately reject NaN along with out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -234,7 +237,10 @@ fn band_file(bytes: &[u8], src: &str, grid: Option<&[f64]>) -> Result<(BandSourc
     ))
 }
 
-fn readings_csv(path: &Path, n_bands: usize) -> Result<(Vec<[f64; 3]>, Option<Vec<[f64; 3]>>)> {
+/// Per band r, g, b readings.
+type Rgb = Vec<[f64; 3]>;
+
+fn readings_csv(path: &Path, n_bands: usize) -> Result<(Rgb, Option<Rgb>)> {
     let (bytes, src) = lumifit::io::read_input(path)?;
     let t = lumifit::table::parse_numeric_csv(&bytes, &src)?;
     let ncol = t.columns.len();
@@ -271,7 +277,7 @@ fn readings_csv(path: &Path, n_bands: usize) -> Result<(Vec<[f64; 3]>, Option<Ve
     Ok((rgb, (ncol == 7).then_some(std)))
 }
 
-fn capture_readings(path: &Path, geometry: &LvfGeometry) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+fn capture_readings(path: &Path, geometry: &LvfGeometry) -> Result<(Rgb, Rgb)> {
     let (frame, _) = lumifit::io::series::read_frame(path)?;
     let r = geometry
         .band_readings(&frame)
@@ -443,8 +449,8 @@ fn recover_cmd(a: &RecoverArgs) -> Result<()> {
     }
 
     let mut csv = String::from("wavelength_nm,value,std\n");
-    for i in 0..grid.len() {
-        csv.push_str(&format!("{},{},{}\n", grid[i], rec.value[i], rec.std[i]));
+    for ((l, v), sd) in grid.iter().zip(&rec.value).zip(&rec.std) {
+        csv.push_str(&format!("{l},{v},{sd}\n"));
     }
     let summary = summary_json(
         a,
