@@ -1,10 +1,15 @@
 //! Decay fitting speed, side by side on the same 1000 synthetic RGB curves (37 samples every 5 s,
 //! two states, 1 % noise): lumifit's `fit_decay` against the `varpro` crate (0.13, Levenberg–
-//! Marquardt on the projected residual, multiple right-hand sides). Both fit two rates with
-//! per-channel amplitudes (the model varpro can express); lumifit is also timed with its default
-//! shared-spectrum model. Single thread. Prints fits/s and the median relative rate error of
-//! each, then runs criterion on one curve. `cargo bench --bench decay_fit`. The scipy peer
-//! (`curve_fit` with bounds ≥ 0, plus the lumifit CLI in the same run) is
+//! Marquardt on the projected residual, multiple right-hand sides). Single thread. Prints fits/s
+//! and the median relative rate error of each, then runs criterion on one curve.
+//! `cargo bench --bench decay_fit`.
+//!
+//! The same job: varpro is given the two-state per-channel model (the model it can express) and
+//! one start; the row to compare with it is lumifit with two states fixed and per-channel
+//! amplitudes. lumifit is also timed with its default shared-spectrum model, and with automatic
+//! model selection (1–3 states by BIC plus the collapse rule, a bigger job than varpro's), where
+//! a curve for which it chose another number of states than two counts under "other n".
+//! The scipy peer (`curve_fit` with bounds ≥ 0, plus the lumifit CLI in the same run) is
 //! `scripts/bench/decay_fit_scipy.py`; results in docs/performance.md.
 
 use std::time::Instant;
@@ -53,11 +58,12 @@ fn cases() -> Vec<Case> {
         .collect()
 }
 
-fn lumifit_opts(amp: AmplitudeModel) -> DecayFitOptions {
+fn lumifit_opts(amp: AmplitudeModel, states: StatesChoice) -> DecayFitOptions {
     DecayFitOptions {
-        states: StatesChoice::Fixed(2),
+        states,
         amplitudes: amp,
-        collapse: false,
+        // fixed: exactly the two states varpro fits; auto: the defaults (collapse rule on)
+        collapse: states != StatesChoice::Fixed(2),
         ..DecayFitOptions::default()
     }
 }
@@ -125,7 +131,7 @@ fn summarise(name: &str, secs: f64, results: &[Option<[f64; 2]>], cases: &[Case]
         }
     }
     println!(
-        "{name:<44} {:>10.0} fits/s  median |Δk1/k1| {:.2e}  median |Δk2/k2| {:.2e}  failed {failed}",
+        "{name:<52} {:>8.0} fits/s  median |Δk1/k1| {:.2e}  median |Δk2/k2| {:.2e}  failed or other n {failed}",
         cases.len() as f64 / secs,
         median(e1),
         median(e2)
@@ -136,17 +142,30 @@ fn side_by_side() {
     std::panic::set_hook(Box::new(|_| {}));
     let cases = cases();
     println!("decay fit, {N_CURVES} RGB curves × {N_SAMPLES} samples, two states, 1 % noise, single thread");
-    for (name, amp) in [
+    let auto = StatesChoice::Auto { max: 3 };
+    for (name, amp, states) in [
         (
-            "lumifit fit_decay (per-channel amplitudes)",
+            "lumifit --states 2, per-channel amplitudes",
             AmplitudeModel::PerChannel,
+            StatesChoice::Fixed(2),
         ),
         (
-            "lumifit fit_decay (shared spectrum)",
+            "lumifit --states 2, shared spectrum",
             AmplitudeModel::SharedSpectrum,
+            StatesChoice::Fixed(2),
+        ),
+        (
+            "lumifit auto (BIC 1-3), per-channel amplitudes",
+            AmplitudeModel::PerChannel,
+            auto,
+        ),
+        (
+            "lumifit auto (BIC 1-3), shared spectrum",
+            AmplitudeModel::SharedSpectrum,
+            auto,
         ),
     ] {
-        let opts = lumifit_opts(amp);
+        let opts = lumifit_opts(amp, states);
         let start = Instant::now();
         let r: Vec<_> = cases.iter().map(|c| fit_lumifit(c, &opts)).collect();
         summarise(name, start.elapsed().as_secs_f64(), &r, &cases);
@@ -179,7 +198,7 @@ fn bench(c: &mut Criterion) {
     side_by_side();
     let cases = cases();
     let one = &cases[0];
-    let opts = lumifit_opts(AmplitudeModel::PerChannel);
+    let opts = lumifit_opts(AmplitudeModel::PerChannel, StatesChoice::Fixed(2));
     c.bench_function("lumifit fit_decay one RGB curve (per-channel)", |b| {
         b.iter(|| fit_lumifit(one, &opts))
     });

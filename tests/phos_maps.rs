@@ -113,3 +113,33 @@ fn float_maps_read_back_with_the_value_in_every_channel() {
         }
     }
 }
+
+#[test]
+fn per_pixel_maps_hold_at_the_default_one_percent_noise() {
+    // At 1 % noise the one-state half decays into clipped read noise after a few frames; the
+    // weights must not let those frames (a small positive bias) pull the rate towards 0.
+    let (w, h) = (16, 8);
+    let (s, _) = series(FrameLayout::Halves, w, h, 0.01);
+    let maps = fit_pixel_maps(&s, 1, &DecayFitOptions::default(), &|| {}).unwrap();
+    assert_eq!(maps.n_failed, 0);
+    let left: Vec<f64> = (0..w * h)
+        .filter(|i| i % w < w / 2)
+        .map(|i| f64::from(maps.k_per_s[0][i]))
+        .collect();
+    let k_left = median(left);
+    assert!((k_left / 0.227 - 1.0).abs() < 0.05, "left k1 = {k_left}");
+    let right: Vec<usize> = (0..w * h).filter(|i| i % w >= w / 2).collect();
+    let n2 = right.iter().filter(|&&i| maps.n_states[i] == 2.0).count();
+    assert!(
+        n2 * 10 >= right.len() * 8,
+        "{n2} of {} two-state",
+        right.len()
+    );
+    let k2 = median(
+        right
+            .iter()
+            .map(|&i| f64::from(maps.k_per_s[1][i]))
+            .collect(),
+    );
+    assert!((k2 / 0.0454 - 1.0).abs() < 0.1, "right k2 = {k2}");
+}

@@ -426,6 +426,18 @@ pub fn solve_separable<M: SeparableModel>(
                 termination = Termination::StepConverged;
                 break;
             }
+            // MINPACK's rule also applies to a rejected step: when the predicted reduction and
+            // the actual change are both below ftol relative to the cost, the cost is at its
+            // minimum to the requested precision (the "increase" is rounding).
+            let scale = cur.rss.max(f64::MIN_POSITIVE);
+            if ok
+                && trial.rss.is_finite()
+                && 2.0 * pred / scale <= opts.ftol
+                && 2.0 * actual.abs() / scale <= opts.ftol
+            {
+                termination = Termination::CostConverged;
+                break;
+            }
             mu *= nu;
             nu *= 2.0;
             if !mu.is_finite() || mu > 1e300 {

@@ -13,6 +13,9 @@
 //! least-squares update of Λ* (started from the leading right singular vector of Y). Per-channel
 //! amplitudes (`a_ic` free) are an option; then it is a multi-right-hand-side separable fit.
 //!
+//! Starts: for n ≥ 2 states Prony's linear-prediction estimate (evenly spaced times), then the
+//! (n − 1)-state fit plus a slower state; log-spaced starts only when those fits are doubtful.
+//!
 //! The number of states is chosen by BIC among 1..=max (or fixed), then a collapse rule removes a
 //! state whose amplitude is zero, and merges two rates closer than twice their combined standard
 //! deviation in log k; the report's flags say what happened. Rate uncertainties are the square
@@ -33,6 +36,12 @@ use crate::fit::{
 
 /// Largest number of states the fit offers.
 pub const MAX_STATES: usize = 3;
+
+/// Relative cost reduction at which a fit that only seeds the next number of states stops (it
+/// is continued to the full tolerance if it is ever selected).
+const SEED_FTOL: f64 = 1e-6;
+/// Relative step at which a seed fit stops.
+const SEED_XTOL: f64 = 1e-5;
 
 /// A measured decay: times and one or more channels, optional per-sample standard deviations.
 #[derive(Debug, Clone, PartialEq)]
@@ -703,6 +712,85 @@ impl<'c> Prepared<'c> {
         ((0.5 / span).ln(), (1.0 / dt).ln())
     }
 
+    /// Prony's (1795) linear-prediction estimate of n rates (θ = ln k), for evenly spaced
+    /// times: a sum of n exponentials sampled every Δτ obeys y_{i+n} = Σ_j p_j y_{i+n−j}, and
+    /// the roots z of z^n − Σ_j p_j z^{n−j} are e^{−k Δτ}. The p_j are fitted by weighted least
+    /// squares over every channel (differences y_{i+1} − y_i remove a constant background).
+    /// Biased by noise, so only a start; `None` unless the roots are real, distinct, in (0, 1)
+    /// and give rates in the plausible range.
+    fn prony_start(&self, n: usize, background: bool) -> Option<Vec<f64>> {
+        let dt = uniform_step(&self.tau)?;
+        let (m, nc) = (self.m, self.n_ch);
+        let len = m - usize::from(background);
+        if n == 0 || n > MAX_STATES || len < 2 * n + 2 {
+            return None;
+        }
+        let sample = |c: usize, i: usize| {
+            let y = &self.y[c * m..(c + 1) * m];
+            if background {
+                y[i + 1] - y[i]
+            } else {
+                y[i]
+            }
+        };
+        // normal equations G p = b (n ≤ 3)
+        let mut g = [[0.0_f64; MAX_STATES]; MAX_STATES];
+        let mut b = [0.0_f64; MAX_STATES];
+        for c in 0..nc {
+            for i in n..len {
+                let w = self.w(i);
+                let target = sample(c, i);
+                for a in 0..n {
+                    let xa = sample(c, i - 1 - a);
+                    b[a] += w * xa * target;
+                    for bb in 0..=a {
+                        g[a][bb] += w * xa * sample(c, i - 1 - bb);
+                    }
+                }
+            }
+        }
+        // Cholesky of the symmetric positive definite G
+        let mut l = [[0.0_f64; MAX_STATES]; MAX_STATES];
+        for a in 0..n {
+            for bb in 0..=a {
+                let s = g[a][bb] - (0..bb).map(|k| l[a][k] * l[bb][k]).sum::<f64>();
+                if a == bb {
+                    if !(s > 1e-14 * g[a][a]) {
+                        return None;
+                    }
+                    l[a][a] = s.sqrt();
+                } else {
+                    l[a][bb] = s / l[bb][bb];
+                }
+            }
+        }
+        let mut p = [0.0_f64; MAX_STATES];
+        for a in 0..n {
+            p[a] = (b[a] - (0..a).map(|k| l[a][k] * p[k]).sum::<f64>()) / l[a][a];
+        }
+        for a in (0..n).rev() {
+            p[a] = (p[a] - (a + 1..n).map(|k| l[k][a] * p[k]).sum::<f64>()) / l[a][a];
+        }
+        let roots = real_roots(&p[..n])?;
+        let (lo, hi) = self.log_rate_range();
+        let mut theta = Vec::with_capacity(n);
+        for z in roots {
+            if !(z > 0.0 && z < 1.0) {
+                return None;
+            }
+            let th = (-z.ln() / dt).ln();
+            if !(th >= lo - 3.0 && th <= hi + 3.0) {
+                return None;
+            }
+            theta.push(th);
+        }
+        theta.sort_by(|a, b| b.total_cmp(a));
+        if theta.windows(2).any(|w| !(w[0] - w[1] > 0.05)) {
+            return None;
+        }
+        Some(theta)
+    }
+
     /// One-state starting rate from a log-linear fit of the channel sum (weights z², the usual
     /// correction of the log transform), clamped to the plausible range.
     fn log_linear_start(&self) -> f64 {
@@ -763,38 +851,115 @@ impl<'c> Prepared<'c> {
         prev_rss.is_none_or(|p| r.rss < p)
     }
 
+    /// Whether a fit's states are degenerate — in effect a fit with fewer states: a state's
+    /// amplitude is (nearly) zero, two rates coincide, or a rate is outside the plausible range
+    /// by more than e³ (gone before the second sample, or constant over the record).
+    fn degenerate(&self, r: &RawFit) -> bool {
+        if !r.rss.is_finite() {
+            return false;
+        }
+        let (lo, hi) = self.log_rate_range();
+        if r.theta.iter().any(|t| !(*t >= lo - 3.0 && *t <= hi + 3.0)) {
+            return true;
+        }
+        let amp = |j: usize| {
+            r.c[j]
+                .iter()
+                .cloned()
+                .fold(r.a.get(j).copied().unwrap_or(0.0), f64::max)
+        };
+        let n = r.theta.len();
+        let amax = (0..n).map(amp).fold(0.0_f64, f64::max);
+        (0..n).any(|j| !(amp(j) > 1e-6 * amax))
+            || (0..n).any(|i| (i + 1..n).any(|j| !((r.theta[i] - r.theta[j]).abs() > 0.05)))
+    }
+
+    /// Fits n states: good starts first, the multi-start only when their fits are doubtful.
+    ///
+    /// `optional`: the n-state model is only a BIC candidate next to the (n − 1)-state fit
+    /// `prev`. Then a fit from the good starts that is hopeless — degenerate (see
+    /// [`Self::degenerate`]) and either losing to `prev` on BIC or removed by the collapse
+    /// rule — ends the search early, without the log-spaced multi-start: for three states
+    /// when the two-state fit extended by a slower state (and Prony's estimate, if any) is
+    /// hopeless; for two states when the one-state fit extended by a slower and by a faster
+    /// state both are. The data then show no further state and the candidate could not be
+    /// the result.
     fn fit_n(
         &self,
         n: usize,
         prev: Option<(&[f64], f64)>,
+        optional: bool,
         opts: &DecayFitOptions,
         s0: &[f64],
     ) -> RawFit {
-        // One good start first (log-linear for one state, the nested fit plus a slower state
-        // otherwise); the multi-start below runs only when that fit is doubtful.
-        let first_start = match prev {
-            Some((p, _)) if p.len() + 1 == n => {
+        // Good starts first (log-linear for one state; Prony's estimate, then the nested fit
+        // plus a slower state, otherwise); the multi-start below runs only when those fits are
+        // doubtful.
+        let mut first_starts: Vec<Vec<f64>> = Vec::with_capacity(2);
+        if n == 1 {
+            first_starts.push(vec![self.log_linear_start()]);
+        } else {
+            if let Some(st) = self.prony_start(n, opts.background) {
+                first_starts.push(st);
+            }
+            if let Some((p, _)) = prev.filter(|(p, _)| p.len() + 1 == n) {
                 let mn = p.iter().cloned().fold(f64::INFINITY, f64::min);
                 let mut a = p.to_vec();
                 a.push(mn - 1.5);
-                Some(a)
+                first_starts.push(a);
             }
-            _ if n == 1 => Some(vec![self.log_linear_start()]),
-            _ => None,
-        };
-        let mut first = None;
-        if let Some(st) = &first_start {
+        }
+        let mut first: Option<RawFit> = None;
+        for st in &first_starts {
             let r = self.fit_from(n, st, opts, s0);
             if self.acceptable(&r, prev.map(|p| p.1)) {
                 return r;
             }
-            first = Some(r);
+            if first.as_ref().is_none_or(|f| r.rss < f.rss) {
+                first = Some(r);
+            }
+        }
+        if let (true, Some((p, prev_rss))) = (optional, prev) {
+            let n_obs = self.m * self.n_ch;
+            let prev_bic = bic(prev_rss, n_obs, self.n_params_of(p.len(), opts));
+            let hopeless = |f: &RawFit| {
+                self.degenerate(f)
+                    && (bic(f.rss, n_obs, self.n_params_of(n, opts)) >= prev_bic
+                        || (opts.collapse
+                            && collapse_reason(f, self.log_rate_sds(f, opts).as_deref()).is_some()))
+            };
+            if first.as_ref().is_some_and(hopeless) {
+                if n >= 3 {
+                    if let Some(f) = first.take() {
+                        return f;
+                    }
+                }
+                // two states: the one-state fit is a compromise between the two rates, so the
+                // other warm start (plus a faster state) must fail too
+                let mx = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                let mut faster = p.to_vec();
+                faster.push(mx + 1.5);
+                let r = self.fit_from(n, &faster, opts, s0);
+                first_starts.push(faster);
+                if self.acceptable(&r, Some(prev_rss)) {
+                    return r;
+                }
+                let r_hopeless = hopeless(&r);
+                if first.as_ref().is_none_or(|f| r.rss < f.rss) {
+                    first = Some(r);
+                }
+                if r_hopeless {
+                    if let Some(f) = first.take() {
+                        return f;
+                    }
+                }
+            }
         }
         // the doubtful first fit competes on RSS at the end but does not count as agreement
         let mut best: Option<RawFit> = None;
         let mut agree = 0;
         for start in self.starts(n, prev.map(|p| p.0), opts.n_starts) {
-            if first_start.as_ref() == Some(&start) {
+            if first_starts.contains(&start) {
                 continue;
             }
             let r = self.fit_from(n, &start, opts, s0);
@@ -830,7 +995,11 @@ impl<'c> Prepared<'c> {
     }
 
     fn n_params(&self, raw: &RawFit, opts: &DecayFitOptions) -> usize {
-        let n = raw.theta.len();
+        self.n_params_of(raw.theta.len(), opts)
+    }
+
+    /// Number of fitted parameters of an n-state model.
+    fn n_params_of(&self, n: usize, opts: &DecayFitOptions) -> usize {
         let nc = self.n_ch;
         let lin = if nc == 1 {
             n
@@ -840,6 +1009,27 @@ impl<'c> Prepared<'c> {
             n + nc - 1
         };
         n + lin + if opts.background { nc } else { 0 }
+    }
+
+    /// e^{−k_j t_i} on the absolute times, state after state (one `exp` per state and a
+    /// product per sample when the times are evenly spaced).
+    fn abs_exp_table(&self, ks: &[f64]) -> Vec<f64> {
+        let mut out = Vec::with_capacity(ks.len() * self.m);
+        let step = uniform_step(&self.tau);
+        for k in ks {
+            match step {
+                Some(dt) => {
+                    let r = (-k * dt).exp();
+                    let mut e = (-k * self.t0).exp();
+                    for _ in 0..self.m {
+                        out.push(e);
+                        e *= r;
+                    }
+                }
+                None => out.extend(self.curve.t_s.iter().map(|t| (-k * t).exp())),
+            }
+        }
+        out
     }
 
     /// Covariance over (k, amplitudes, spectrum, background) in absolute time; returns the
@@ -858,45 +1048,42 @@ impl<'c> Prepared<'c> {
         let shared = nc > 1 && opts.amplitudes == AmplitudeModel::SharedSpectrum;
         let rows = m * nc;
         let t = &self.curve.t_s;
-        // e^{−k_j t_i}, computed once
-        let ex: Vec<f64> = ks
-            .iter()
-            .flat_map(|k| t.iter().map(move |ti| (-k * ti).exp()))
-            .collect();
-        let mut cols: Vec<Vec<f64>> = Vec::new();
+        let ex = self.abs_exp_table(ks);
+        let sw = |i: usize| self.sqrt_w.as_ref().map_or(1.0, |w| w[i]);
+        // the weighted Jacobian, column after column (each column: channel after channel)
+        let mut jac: Vec<f64> = Vec::with_capacity(rows * (2 * n + n * nc + 2 * nc));
+        let mut p = 0;
         let mut k_idx = vec![None; n];
         let mut a_idx = vec![None; n];
         for j in 0..n {
             if a_abs[j] <= 0.0 {
                 continue;
             }
-            let mut dk = vec![0.0; rows];
+            let e = &ex[j * m..(j + 1) * m];
             for c in 0..nc {
-                for i in 0..m {
-                    dk[c * m + i] = -t[i] * c_abs[j][c] * ex[j * m + i];
-                }
+                jac.extend((0..m).map(|i| -t[i] * c_abs[j][c] * e[i] * sw(i)));
             }
-            k_idx[j] = Some(cols.len());
-            cols.push(dk);
+            k_idx[j] = Some(p);
+            p += 1;
             if shared || nc == 1 {
-                let mut da = vec![0.0; rows];
                 for c in 0..nc {
-                    for i in 0..m {
-                        da[c * m + i] = spectrum[c] * ex[j * m + i];
-                    }
+                    jac.extend((0..m).map(|i| spectrum[c] * e[i] * sw(i)));
                 }
-                a_idx[j] = Some(cols.len());
-                cols.push(da);
+                a_idx[j] = Some(p);
+                p += 1;
             } else {
                 for c in 0..nc {
                     if c_abs[j][c] <= 0.0 {
                         continue;
                     }
-                    let mut da = vec![0.0; rows];
-                    for i in 0..m {
-                        da[c * m + i] = ex[j * m + i];
+                    for c2 in 0..nc {
+                        if c2 == c {
+                            jac.extend((0..m).map(|i| e[i] * sw(i)));
+                        } else {
+                            jac.extend(std::iter::repeat_n(0.0, m));
+                        }
                     }
-                    cols.push(da);
+                    p += 1;
                 }
             }
         }
@@ -913,27 +1100,28 @@ impl<'c> Prepared<'c> {
                 if c == fix || spectrum[c] <= 0.0 {
                     continue;
                 }
-                let mut ds = vec![0.0; rows];
-                for i in 0..m {
-                    ds[c * m + i] = (0..n).map(|j| a_abs[j] * ex[j * m + i]).sum();
+                for c2 in 0..nc {
+                    if c2 == c {
+                        jac.extend((0..m).map(|i| {
+                            (0..n).map(|j| a_abs[j] * ex[j * m + i]).sum::<f64>() * sw(i)
+                        }));
+                    } else {
+                        jac.extend(std::iter::repeat_n(0.0, m));
+                    }
                 }
-                cols.push(ds);
+                p += 1;
             }
         }
         if opts.background {
             for c in 0..nc {
-                let mut db = vec![0.0; rows];
-                db[c * m..(c + 1) * m].iter_mut().for_each(|v| *v = 1.0);
-                cols.push(db);
-            }
-        }
-        let p = cols.len();
-        let mut jac = Vec::with_capacity(rows * p);
-        for col in &cols {
-            for c in 0..nc {
-                for i in 0..m {
-                    jac.push(col[c * m + i] * self.sqrt_w.as_ref().map_or(1.0, |w| w[i]));
+                for c2 in 0..nc {
+                    if c2 == c {
+                        jac.extend((0..m).map(sw));
+                    } else {
+                        jac.extend(std::iter::repeat_n(0.0, m));
+                    }
                 }
+                p += 1;
             }
         }
         let cov = covariance(&jac, rows, p, rss)?;
@@ -1038,16 +1226,60 @@ impl<'c> Prepared<'c> {
             termination: raw.termination,
             amplitudes: opts.amplitudes,
         };
+        let ex = self.abs_exp_table(&ks);
         let mut ss = 0.0;
-        for (i, t) in self.curve.t_s.iter().enumerate() {
-            let p = fit.predict(*t);
-            for c in 0..nc {
-                let r = self.curve.channels[c][i] - p[c];
+        for c in 0..nc {
+            let b = fit.background.as_ref().map_or(0.0, |b| b[c]);
+            for (i, y) in self.curve.channels[c].iter().enumerate() {
+                let p: f64 = fit
+                    .states
+                    .iter()
+                    .enumerate()
+                    .map(|(j, s)| s.channel_amplitudes[c] * ex[j * self.m + i])
+                    .sum();
+                let r = y - p - b;
                 ss += r * r;
             }
         }
         fit.rms = (ss / fit.n_obs as f64).sqrt();
         fit
+    }
+}
+
+/// The roots of z^n − p₁ z^{n−1} − … − p_n (n ≤ 3) when all are real, else `None`.
+fn real_roots(p: &[f64]) -> Option<Vec<f64>> {
+    match *p {
+        [p1] => Some(vec![p1]),
+        [p1, p2] => {
+            let disc = p1 * p1 + 4.0 * p2;
+            if !(disc >= 0.0) {
+                return None;
+            }
+            let q = 0.5 * (p1 + p1.signum() * disc.sqrt());
+            // the stable pair: q and −p₂/q (product of the roots is −p₂)
+            if q == 0.0 {
+                return Some(vec![0.0, 0.0]);
+            }
+            Some(vec![q, -p2 / q])
+        }
+        [p1, p2, p3] => {
+            // z³ + A z² + B z + C with A = −p₁, B = −p₂, C = −p₃ (trigonometric method)
+            let (a, b, c) = (-p1, -p2, -p3);
+            let q = (a * a - 3.0 * b) / 9.0;
+            let r = (2.0 * a * a * a - 9.0 * a * b + 27.0 * c) / 54.0;
+            if !(q > 0.0 && r * r < q * q * q) {
+                return None;
+            }
+            let phi = (r / (q * q * q).sqrt()).clamp(-1.0, 1.0).acos();
+            let sq = -2.0 * q.sqrt();
+            let tau = std::f64::consts::TAU;
+            Some(vec![
+                sq * (phi / 3.0).cos() - a / 3.0,
+                sq * ((phi + tau) / 3.0).cos() - a / 3.0,
+                sq * ((phi - tau) / 3.0).cos() - a / 3.0,
+            ])
+        }
+        _ => None,
     }
 }
 
@@ -1134,26 +1366,47 @@ pub fn fit_decay(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit>
     let prep = Prepared::new(curve);
     let n_obs = prep.m * prep.n_ch;
     let s0 = prep.initial_spectrum();
-    // fit 1..=hi (lower counts seed the higher ones and serve the collapse rule)
-    let mut raws: Vec<RawFit> = Vec::with_capacity(hi);
-    for n in 1..=hi {
-        let prev = raws.last().map(|r| (r.theta.clone(), r.rss));
-        let mut r = prep.fit_n(n, prev.as_ref().map(|(t, v)| (&t[..], *v)), opts, &s0);
-        // keep monotone: a larger model never fits worse than a smaller one nested in it
-        if let Some(p) = raws.last() {
-            if r.rss > p.rss * (1.0 + 1e-9) {
-                let mut alt = p.theta.clone();
-                alt.push(p.theta.iter().cloned().fold(f64::INFINITY, f64::min) - 3.0);
-                let r2 = prep.fit_from(n, &alt, opts, &s0);
-                if r2.rss < r.rss {
-                    r = r2;
-                }
+    // Fit 1..=hi: lower counts seed the higher ones and are the collapse rule's fall-back.
+    // Counts below `lo` are not results unless the collapse rule falls back to them: when a
+    // Prony start gives an acceptable fit of `lo` states directly they are not fitted at all,
+    // otherwise they are fitted to a loose tolerance; either way they are fitted (or refined)
+    // to the full tolerance only if selected.
+    let seed_opts = DecayFitOptions {
+        solver: SolverOptions {
+            ftol: SEED_FTOL.max(opts.solver.ftol),
+            xtol: SEED_XTOL.max(opts.solver.xtol),
+            ..opts.solver
+        },
+        ..*opts
+    };
+    let mut raws: Vec<Option<RawFit>> = vec![None; hi];
+    let mut exact = vec![false; hi];
+    let mut first = 1;
+    if lo >= 2 {
+        if let Some(st) = prep.prony_start(lo, opts.background) {
+            let r = prep.fit_from(lo, &st, opts, &s0);
+            if prep.acceptable(&r, None) {
+                raws[lo - 1] = Some(r);
+                exact[lo - 1] = true;
+                first = lo + 1;
             }
         }
-        raws.push(r);
+    }
+    for n in first..=hi {
+        let o = if n < lo { &seed_opts } else { opts };
+        let r = prep.fit_monotone(
+            n,
+            raws[..n - 1].last().and_then(Option::as_ref),
+            n > lo,
+            o,
+            &s0,
+        );
+        raws[n - 1] = Some(r);
+        exact[n - 1] = n >= lo;
     }
     let candidates: Vec<Candidate> = raws
         .iter()
+        .flatten()
         .filter(|r| r.theta.len() >= lo)
         .map(|r| {
             let mut k: Vec<f64> = r.theta.iter().map(|t| t.exp()).collect();
@@ -1175,7 +1428,7 @@ pub fn fit_decay(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit>
     let mut flags = Vec::new();
     if opts.collapse {
         while chosen > 1 {
-            let raw = &raws[chosen - 1];
+            let raw = prep.exact_fit(&mut raws, &mut exact, chosen, opts, &s0);
             let sd_logk = prep.log_rate_sds(raw, opts);
             match collapse_reason(raw, sd_logk.as_deref()) {
                 Some(flag) => {
@@ -1186,7 +1439,7 @@ pub fn fit_decay(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit>
             }
         }
     }
-    let raw = &raws[chosen - 1];
+    let raw = prep.exact_fit(&mut raws, &mut exact, chosen, opts, &s0);
     if raw.a.iter().all(|a| *a <= 0.0) && raw.c.iter().flatten().all(|a| *a <= 0.0) {
         return Err(Error::Numerical {
             what: "decay fit".into(),
@@ -1199,6 +1452,60 @@ pub fn fit_decay(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit>
 }
 
 impl Prepared<'_> {
+    /// The n-state fit from [`Self::fit_n`], kept monotone: a larger model never fits worse
+    /// than the smaller one nested in it (`prev`, n − 1 states).
+    fn fit_monotone(
+        &self,
+        n: usize,
+        prev: Option<&RawFit>,
+        optional: bool,
+        opts: &DecayFitOptions,
+        s0: &[f64],
+    ) -> RawFit {
+        let mut r = self.fit_n(n, prev.map(|p| (&p.theta[..], p.rss)), optional, opts, s0);
+        if let Some(p) = prev {
+            if r.rss > p.rss * (1.0 + 1e-9) {
+                let mut alt = p.theta.clone();
+                alt.push(p.theta.iter().cloned().fold(f64::INFINITY, f64::min) - 3.0);
+                let r2 = self.fit_from(n, &alt, opts, s0);
+                if r2.rss < r.rss {
+                    r = r2;
+                }
+            }
+        }
+        r
+    }
+
+    /// The n-state fit to the full tolerance of `opts`: fitted now (with the counts below it
+    /// that seed it) if it was skipped, continued from its end if it was a loose seed fit.
+    fn exact_fit<'r>(
+        &self,
+        raws: &'r mut [Option<RawFit>],
+        exact: &mut [bool],
+        n: usize,
+        opts: &DecayFitOptions,
+        s0: &[f64],
+    ) -> &'r RawFit {
+        for k in 1..=n {
+            if raws[n - 1].is_none() && raws[k - 1].is_none() {
+                let prev = raws[..k - 1].last().and_then(Option::as_ref);
+                let r = self.fit_monotone(k, prev, false, opts, s0);
+                raws[k - 1] = Some(r);
+                exact[k - 1] = true;
+            }
+        }
+        // (always filled by the loop above; the fall-back only keeps this total)
+        let raw = raws[n - 1].get_or_insert_with(|| self.fit_monotone(n, None, false, opts, s0));
+        if !exact[n - 1] {
+            exact[n - 1] = true;
+            let r = self.fit_from(raw.theta.len(), &raw.theta, opts, s0);
+            if r.rss <= raw.rss || !raw.rss.is_finite() {
+                *raw = r;
+            }
+        }
+        raw
+    }
+
     /// Standard deviations of ln k for the collapse rule (τ time base).
     fn log_rate_sds(&self, raw: &RawFit, opts: &DecayFitOptions) -> Option<Vec<f64>> {
         let ks: Vec<f64> = raw.theta.iter().map(|t| t.exp()).collect();
@@ -1307,4 +1614,109 @@ pub fn band_spectrum(
         ));
     }
     Ok(out.into_iter().map(|v| (v / mx).max(0.0)).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Noise-free sums of exponentials: Prony's estimate is exact up to rounding.
+    const PRONY_EXACT: f64 = 1e-6;
+
+    fn curve(rates: &[f64], background: f64) -> DecayCurve {
+        let t: Vec<f64> = (0..37).map(|i| 10.0 + 5.0 * i as f64).collect();
+        let ch = (0..3)
+            .map(|c| {
+                t.iter()
+                    .map(|ti| {
+                        rates
+                            .iter()
+                            .enumerate()
+                            .map(|(j, k)| (1.0 + j as f64 + 0.3 * c as f64) * (-k * ti).exp())
+                            .sum::<f64>()
+                            + background
+                    })
+                    .collect()
+            })
+            .collect();
+        DecayCurve::new(t, ch, None).unwrap()
+    }
+
+    #[test]
+    fn prony_start_recovers_the_rates_of_noise_free_sums_of_exponentials() {
+        for (rates, bg) in [
+            (&[0.2, 0.03][..], 0.0),
+            (&[0.2, 0.03][..], 0.05),
+            (&[0.5, 0.1, 0.02][..], 0.0),
+        ] {
+            let c = curve(rates, bg);
+            let prep = Prepared::new(&c);
+            let theta = prep.prony_start(rates.len(), bg != 0.0).unwrap();
+            for (th, k) in theta.iter().zip(rates) {
+                assert!(
+                    (th.exp() / k - 1.0).abs() < PRONY_EXACT,
+                    "{theta:?} vs {rates:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn prony_start_declines_growth_and_complex_roots() {
+        // a rising curve: the root is above 1
+        let t: Vec<f64> = (0..20).map(|i| i as f64).collect();
+        let rising = DecayCurve::new(
+            t.clone(),
+            vec![t.iter().map(|x| (0.05 * x).exp()).collect()],
+            None,
+        )
+        .unwrap();
+        assert!(Prepared::new(&rising).prony_start(1, false).is_none());
+        // a damped oscillation, e^{(−0.1 ± 1.3i) t} / 2: complex roots
+        let osc = DecayCurve::new(
+            t.clone(),
+            vec![t
+                .iter()
+                .map(|x| (-0.1 * x).exp() * (1.3 * x).cos())
+                .collect()],
+            None,
+        )
+        .unwrap();
+        assert!(Prepared::new(&osc).prony_start(2, false).is_none());
+    }
+
+    #[test]
+    fn cubic_roots_are_the_three_real_roots() {
+        // (z − 0.9)(z − 0.5)(z − 0.1) = z³ − 1.5 z² + 0.59 z − 0.045
+        let mut r = real_roots(&[1.5, -0.59, 0.045]).unwrap();
+        r.sort_by(f64::total_cmp);
+        for (got, want) in r.iter().zip([0.1, 0.5, 0.9]) {
+            assert!((got - want).abs() < 1e-12, "{r:?}");
+        }
+        // z³ − z² + z − 1 = (z − 1)(z² + 1): two complex roots
+        assert!(real_roots(&[1.0, -1.0, 1.0]).is_none());
+    }
+
+    #[test]
+    fn fixed_two_state_fit_matches_the_fit_through_the_nested_one_state_seed() {
+        let c = curve(&[0.2, 0.03], 0.0);
+        let opts = DecayFitOptions {
+            states: StatesChoice::Fixed(2),
+            collapse: false,
+            ..DecayFitOptions::default()
+        };
+        let fast = fit_decay(&c, &opts).unwrap();
+        // the same minimum reached the long way: the one-state fit, then its nested start
+        let prep = Prepared::new(&c);
+        let s0 = prep.initial_spectrum();
+        let one = prep.fit_n(1, None, false, &opts, &s0);
+        let mut st = one.theta.clone();
+        st.push(one.theta[0] - 1.5);
+        let slow = prep.fit_from(2, &st, &opts, &s0);
+        let mut k: Vec<f64> = slow.theta.iter().map(|t| t.exp()).collect();
+        k.sort_by(|a, b| b.total_cmp(a));
+        for (s, k) in fast.states.iter().zip(&k) {
+            assert!((s.k_per_s / k - 1.0).abs() < 1e-8, "{} vs {k}", s.k_per_s);
+        }
+    }
 }
