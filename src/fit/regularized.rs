@@ -40,13 +40,22 @@ pub enum Smoothness {
     First,
     /// ‖x_{i+1} − 2x_i + x_{i−1}‖²: penalises curvature (straight lines are free).
     Second,
+    /// Second differences of x continued by zeros beyond the ends marked `true`: the penalty
+    /// also charges a curve that does not fall smoothly to zero there (a band transmission
+    /// inside its support window).
+    SecondPadded {
+        /// Zeros before the first unknown.
+        left: bool,
+        /// Zeros after the last unknown.
+        right: bool,
+    },
 }
 
 impl Smoothness {
     fn order(self) -> usize {
         match self {
             Smoothness::First => 1,
-            Smoothness::Second => 2,
+            Smoothness::Second | Smoothness::SecondPadded { .. } => 2,
         }
     }
 }
@@ -73,6 +82,10 @@ pub struct RegularizedOptions {
     /// A prior on how much independent information the data can carry: systematic model errors
     /// (not white noise) otherwise make GCV choose too small a weight and fit them as signal.
     pub max_effective_parameters: Option<f64>,
+    /// GCV only: robust GCV with this γ ∈ (0, 1] (Lukas 2006), V·(γ + (1 − γ)·tr(H²)/m); `None`
+    /// = plain GCV. Small γ guard against the vanishing weights plain GCV picks when some
+    /// unknowns are barely constrained.
+    pub robust_gcv: Option<f64>,
 }
 
 impl Default for RegularizedOptions {
@@ -82,6 +95,7 @@ impl Default for RegularizedOptions {
             weight: Weight::Gcv,
             nonnegative: true,
             max_effective_parameters: None,
+            robust_gcv: None,
         }
     }
 }
@@ -117,21 +131,40 @@ pub struct RegularizedSolution {
     pub gcv_curve: Vec<(f64, f64)>,
 }
 
-/// The difference operator D ((n − order) × n).
-fn difference(n: usize, order: usize) -> DMatrix<f64> {
-    let rows = n.saturating_sub(order);
-    let mut d = DMatrix::zeros(rows, n);
-    for i in 0..rows {
-        match order {
-            1 => {
-                d[(i, i)] = -1.0;
-                d[(i, i + 1)] = 1.0;
+/// The penalty operator D for `n` unknowns: (n − 1) × n first differences, (n − 2) × n second
+/// differences, plus one row per padded end (the second difference across the end, the
+/// unknowns beyond it being zero).
+pub fn penalty_operator(n: usize, smoothness: Smoothness) -> DMatrix<f64> {
+    let (order, left, right) = match smoothness {
+        Smoothness::First => (1, false, false),
+        Smoothness::Second => (2, false, false),
+        Smoothness::SecondPadded { left, right } => (2, left, right),
+    };
+    // Rows over the padded sequence x_pad[k] = x[k − 2] (zeros outside 0..n).
+    let mut rows: Vec<Vec<(usize, f64)>> = Vec::new();
+    if order == 1 {
+        for i in 0..n.saturating_sub(1) {
+            rows.push(vec![(i, -1.0), (i + 1, 1.0)]);
+        }
+    } else {
+        // Row i: x_pad[i] − 2 x_pad[i+1] + x_pad[i+2] for i in 0..n+2; rows 0 and 1 reach
+        // before the first unknown, rows n and n+1 after the last.
+        for i in 0..n + 2 {
+            if (i < 2 && !left) || (i >= n && !right) {
+                continue;
             }
-            _ => {
-                d[(i, i)] = 1.0;
-                d[(i, i + 1)] = -2.0;
-                d[(i, i + 2)] = 1.0;
-            }
+            let row: Vec<(usize, f64)> = [(i, 1.0), (i + 1, -2.0), (i + 2, 1.0)]
+                .into_iter()
+                .filter(|(k, _)| (2..n + 2).contains(k))
+                .map(|(k, v)| (k - 2, v))
+                .collect();
+            rows.push(row);
+        }
+    }
+    let mut d = DMatrix::zeros(rows.len(), n);
+    for (r, row) in rows.iter().enumerate() {
+        for &(j, v) in row {
+            d[(r, j)] = v;
         }
     }
     d
@@ -151,6 +184,8 @@ struct Pencil {
     rss_floor: f64,
     /// GCV is searched only where tr H ≤ this.
     max_tr: f64,
+    /// γ of robust GCV (1 = plain GCV).
+    gamma: f64,
 }
 
 impl Pencil {
@@ -189,6 +224,7 @@ impl Pencil {
             z,
             rss_floor: (btb - inside).max(0.0),
             max_tr: f64::INFINITY,
+            gamma: 1.0,
         })
     }
 
@@ -218,7 +254,16 @@ impl Pencil {
         if dof <= 0.5 || tr > self.max_tr {
             return f64::INFINITY;
         }
-        m as f64 * rss / (dof * dof)
+        let v = m as f64 * rss / (dof * dof);
+        if self.gamma < 1.0 {
+            // Robust GCV (Lukas 2006): V · (γ + (1 − γ)·tr(H²)/m); H's eigenvalues are σᵢ/dᵢ.
+            let tr_h2: f64 = (0..self.sigma.len())
+                .map(|i| (self.sigma[i] / self.denom(i, lambda)).powi(2))
+                .sum();
+            v * (self.gamma + (1.0 - self.gamma) * tr_h2 / m as f64)
+        } else {
+            v
+        }
     }
 
     fn solution(&self, lambda: f64) -> Vec<f64> {
@@ -362,7 +407,7 @@ pub fn solve_regularized(
         return plain(a, m, n, b, opts.nonnegative, condition_number);
     }
 
-    let d = difference(n, order);
+    let d = penalty_operator(n, opts.smoothness);
     let dtd = d.transpose() * &d;
     let g_trace: f64 = (0..n).map(|j| am.column(j).norm_squared()).sum();
     let s = g_trace / dtd.trace();
@@ -375,6 +420,15 @@ pub fn solve_regularized(
             ));
         }
         pencil.max_tr = t;
+    }
+    if let Some(g) = opts.robust_gcv {
+        if !(g > 0.0 && g <= 1.0) {
+            return Err(Error::invalid(
+                "robust GCV γ",
+                format!("{g}: expected 0 < γ ≤ 1"),
+            ));
+        }
+        pencil.gamma = g;
     }
 
     let mut gcv_curve = Vec::new();
@@ -741,6 +795,72 @@ mod tests {
             },
         );
         assert!(e.is_err());
+    }
+
+    #[test]
+    fn penalty_operators_have_the_documented_rows() {
+        let d1 = penalty_operator(4, Smoothness::First);
+        assert_eq!(d1.nrows(), 3);
+        assert_eq!((d1[(0, 0)], d1[(0, 1)]), (-1.0, 1.0));
+        let d2 = penalty_operator(4, Smoothness::Second);
+        assert_eq!(d2.nrows(), 2);
+        assert_eq!((d2[(1, 1)], d2[(1, 2)], d2[(1, 3)]), (1.0, -2.0, 1.0));
+        // Padded on the left: rows x₀ and −2x₀ + x₁ come first (zeros before x₀).
+        let p = penalty_operator(
+            4,
+            Smoothness::SecondPadded {
+                left: true,
+                right: false,
+            },
+        );
+        assert_eq!(p.nrows(), 4);
+        assert_eq!((p[(0, 0)], p[(0, 1)]), (1.0, 0.0));
+        assert_eq!((p[(1, 0)], p[(1, 1)]), (-2.0, 1.0));
+        let both = penalty_operator(
+            4,
+            Smoothness::SecondPadded {
+                left: true,
+                right: true,
+            },
+        );
+        assert_eq!(both.nrows(), 6);
+        assert_eq!((both[(5, 3)], both[(4, 3)], both[(4, 2)]), (1.0, -2.0, 1.0));
+    }
+
+    #[test]
+    fn robust_gcv_chooses_at_least_the_plain_gcv_weight() {
+        let (a, m, n, b, truth) = problem(0.01, 5);
+        let plain = solve_regularized(&a, m, n, &b, &RegularizedOptions::default()).unwrap();
+        let robust = solve_regularized(
+            &a,
+            m,
+            n,
+            &b,
+            &RegularizedOptions {
+                robust_gcv: Some(0.1),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        // tr(H²)/m grows as λ falls, so the robust score penalises small weights more.
+        assert!(
+            robust.lambda >= plain.lambda * 0.999,
+            "{} vs {}",
+            robust.lambda,
+            plain.lambda
+        );
+        assert!(rms(&robust.x, &truth) < 0.05);
+        assert!(solve_regularized(
+            &a,
+            m,
+            n,
+            &b,
+            &RegularizedOptions {
+                robust_gcv: Some(0.0),
+                ..Default::default()
+            }
+        )
+        .is_err());
     }
 
     #[test]

@@ -33,8 +33,8 @@ pub mod synth;
 pub mod transmission;
 
 pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
-pub use geometry::{BandReadings, LvfGeometry};
 pub use fit::{calibrate_whole_profile, FitOptions, MapChoice, Passband};
+pub use geometry::{BandReadings, LvfGeometry};
 pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;
 pub use profile::{extract_profile, Axis, Profile};

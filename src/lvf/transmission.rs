@@ -1154,143 +1154,6 @@ fn gel_varying_range(p: &TransmissionProblem) -> Option<(f64, f64)> {
     (lo < hi).then_some((lo, hi))
 }
 
-/// One trial weight: x, M⁻¹AᵀA, tr H and RSS.
-type Trial = (nalgebra::DVector<f64>, DMatrix<f64>, f64, f64);
-
-/// The solution of one band's regularised problem.
-struct BandSolution {
-    x: Vec<f64>,
-    std: Vec<f64>,
-    lambda: f64,
-    residuals: Vec<f64>,
-    condition_number: f64,
-    n_clamped: usize,
-}
-
-/// Second differences of T, padded with two zeros beyond each end where `pad` says so: the
-/// penalty then also charges a band that does not fall smoothly to zero at its support edges
-/// (an edge set by the grid instead of the support is not padded).
-fn padded_second_difference(n: usize, pad: [bool; 2]) -> DMatrix<f64> {
-    let all = DMatrix::from_fn(n + 2, n, |i, j| {
-        // Row i: x_pad[i] − 2 x_pad[i+1] + x_pad[i+2], x_pad[k] = x[k − 2].
-        match (j + 2).wrapping_sub(i) {
-            0 | 2 => 1.0,
-            1 => -2.0,
-            _ => 0.0,
-        }
-    });
-    let rows: Vec<usize> = (0..n + 2)
-        .filter(|&i| (pad[0] || i >= 2) && (pad[1] || i < n))
-        .collect();
-    DMatrix::from_fn(rows.len(), n, |r, j| all[(rows[r], j)])
-}
-
-/// min ‖A x − b‖² + μ‖D x‖² (x ≥ 0 when asked), D = [`padded_second_difference`], μ = λ·tr(AᵀA)/tr(DᵀD),
-/// λ by GCV over 10^-10…10^4 (0.1 decade steps) or given. Same conventions as
-/// [`solve_regularized`], whose penalty stops at the unknowns' ends.
-fn solve_band(
-    a: &[f64],
-    m: usize,
-    n: usize,
-    b: &[f64],
-    weight: Weight,
-    nonnegative: bool,
-    pad: [bool; 2],
-) -> Result<BandSolution> {
-    let am = DMatrix::from_column_slice(m, n, a);
-    let bv = nalgebra::DVector::from_column_slice(b);
-    let condition_number = condition_number(a, m, n);
-    let d = padded_second_difference(n, pad);
-    let dtd = d.transpose() * &d;
-    let ata = am.transpose() * &am;
-    let atb = am.transpose() * &bv;
-    let s = ata.trace() / dtd.trace();
-    let gamma = ROBUST_GCV_GAMMA;
-    let solve = |lam: f64| -> Option<Trial> {
-        let mm = &ata + &dtd * (lam * s);
-        let chol = mm.cholesky()?;
-        let x = chol.solve(&atb);
-        let minv_ata = chol.solve(&ata);
-        let tr = minv_ata.trace();
-        let rss = (&am * &x - &bv).norm_squared();
-        Some((x, minv_ata, tr, rss))
-    };
-    let lambda = match weight {
-        Weight::Fixed(l) => l,
-        Weight::Gcv => {
-            let mut best = (f64::INFINITY, f64::NAN);
-            for k in 0..=140 {
-                let lam = 10f64.powf(-10.0 + 0.1 * k as f64);
-                if let Some((_, h, tr, rss)) = solve(lam) {
-                    let dof = m as f64 - tr;
-                    if dof > 0.5 {
-                        // Robust GCV (Lukas 2006): GCV · (γ + (1 − γ)·tr(H²)/m).
-                        let tr_h2 = (&h * &h).trace();
-                        let g = m as f64 * rss / (dof * dof)
-                            * (gamma + (1.0 - gamma) * tr_h2 / m as f64);
-                        if g < best.0 {
-                            best = (g, lam);
-                        }
-                    }
-                }
-            }
-            if !best.1.is_finite() {
-                return Err(Error::Numerical {
-                    what: "GCV weight choice".into(),
-                    reason: format!("{m} equations for {n} unknowns leave no degrees of freedom for cross-validation; give the weight explicitly"),
-                });
-            }
-            best.1
-        }
-    };
-    let (x_free, minv_ata, tr, _) = solve(lambda).ok_or_else(|| Error::Numerical {
-        what: "band transmission".into(),
-        reason: "the penalised normal equations are singular".into(),
-    })?;
-    let mut x: Vec<f64> = x_free.iter().copied().collect();
-    let mut n_clamped = 0;
-    if nonnegative && x.iter().any(|&v| v < 0.0) {
-        let sq = (lambda * s).sqrt();
-        let rows = m + d.nrows();
-        let mut stacked = Vec::with_capacity(rows * n);
-        for j in 0..n {
-            stacked.extend_from_slice(&a[j * m..(j + 1) * m]);
-            for i in 0..d.nrows() {
-                stacked.push(sq * d[(i, j)]);
-            }
-        }
-        let mut rhs = b.to_vec();
-        rhs.resize(rows, 0.0);
-        let sol = crate::fit::nnls(&stacked, rows, n, &rhs, &vec![false; n]);
-        n_clamped = sol.x.iter().filter(|&&v| v == 0.0).count();
-        x = sol.x;
-    }
-    let residuals: Vec<f64> = (0..m)
-        .map(|i| b[i] - (0..n).map(|j| a[j * m + i] * x[j]).sum::<f64>())
-        .collect();
-    let rss: f64 = residuals.iter().map(|r| r * r).sum();
-    let sigma2 = rss / (m as f64 - tr).max(1.0);
-    // Cov = σ² M⁻¹AᵀA M⁻¹ = σ² (M⁻¹AᵀA) M⁻¹; M⁻¹ = (M⁻¹AᵀA)·(AᵀA)⁻¹ is avoided: use M⁻¹ directly.
-    let mm = &ata + &dtd * (lambda * s);
-    let std = match mm.try_inverse() {
-        Some(minv) => {
-            let cov = &minv_ata * &minv;
-            (0..n)
-                .map(|k| (sigma2 * cov[(k, k)]).max(0.0).sqrt())
-                .collect()
-        }
-        None => vec![f64::NAN; n],
-    };
-    Ok(BandSolution {
-        x,
-        std,
-        lambda,
-        residuals,
-        condition_number,
-        n_clamped,
-    })
-}
-
 #[allow(clippy::too_many_arguments)]
 fn free_band(
     geometry: &LvfGeometry,
@@ -1325,32 +1188,25 @@ fn free_band(
         }
     }
     let yw: Vec<f64> = y.iter().zip(sigma).map(|(v, s)| v / s).collect();
-    let ro = RegularizedOptions {
-        smoothness: Smoothness::Second,
-        weight: Weight::Fixed(0.0),
-        nonnegative: opts.model == BandModel::Nnls && opts.nonnegative,
-        max_effective_parameters: None,
-    };
     // λ = 0 (or the lstsq model) is plain least squares: QR / NNLS without a penalty.
     let plain = opts.model == BandModel::Lstsq || opts.weight == Weight::Fixed(0.0);
-    let sol = if plain {
-        let r = solve_regularized(&a, m, nc, &yw, &ro).map_err(|e| band_error(e, j, b.nm))?;
-        BandSolution {
-            x: r.x,
-            std: r.std,
-            lambda: r.lambda,
-            residuals: r.residuals,
-            condition_number: r.condition_number,
-            n_clamped: r.n_clamped,
-        }
-    } else {
-        let pad = [
-            grid[cols[0]] > grid[0],
-            grid[cols[nc - 1]] < grid[grid.len() - 1],
-        ];
-        solve_band(&a, m, nc, &yw, opts.weight, opts.nonnegative, pad)
-            .map_err(|e| band_error(e, j, b.nm))?
+    // Second differences padded with zeros beyond the support edges (an edge set by the grid
+    // instead of the support is not padded); robust GCV, see the module docs.
+    let ro = RegularizedOptions {
+        smoothness: Smoothness::SecondPadded {
+            left: grid[cols[0]] > grid[0],
+            right: grid[cols[nc - 1]] < grid[grid.len() - 1],
+        },
+        weight: if plain {
+            Weight::Fixed(0.0)
+        } else {
+            opts.weight
+        },
+        nonnegative: opts.model == BandModel::Nnls && opts.nonnegative,
+        max_effective_parameters: None,
+        robust_gcv: Some(ROBUST_GCV_GAMMA),
     };
+    let sol = solve_regularized(&a, m, nc, &yw, &ro).map_err(|e| band_error(e, j, b.nm))?;
     let mut t = vec![0.0; grid.len()];
     let mut sd = vec![0.0; grid.len()];
     for (k, &i) in cols.iter().enumerate() {

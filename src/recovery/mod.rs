@@ -287,6 +287,7 @@ pub fn recover(
             weight: opts.weight,
             nonnegative: opts.nonnegative,
             max_effective_parameters: Some(opts.max_effective_parameters.unwrap_or(nb as f64)),
+            robust_gcv: None,
         },
     )?;
     let step = model.step();

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Args, Subcommand};
-use lumifit::fit::regularized::{Smoothness, Weight};
+use lumifit::fit::regularized::Weight;
 use lumifit::lvf::LvfGeometry;
 use lumifit::recovery::{
     exposure_from_white, recover, white_gains, Quantity, Recovered, RecoveryOptions, SensingModel,
@@ -561,34 +561,20 @@ fn system_json(
     if worst > 1e-6 {
         bail!("--dump-system: the rebuilt system does not reproduce the recovery's residuals (relative difference {worst:.2e}); this is a bug");
     }
-    let order = match opts.smoothness {
-        Smoothness::First => 1usize,
-        Smoothness::Second => 2,
-    };
+    let d = lumifit::fit::regularized::penalty_operator(n, opts.smoothness);
+    let order = n - d.nrows();
     let gram_trace: f64 = a.iter().map(|v| v * v).sum();
-    let dtd_trace = match order {
-        1 => 2.0 * (n - 1) as f64,
-        _ => 6.0 * (n - 2) as f64,
-    };
+    let dtd_trace: f64 = d.iter().map(|v| v * v).sum();
     let mu = rec.lambda * gram_trace / dtd_trace;
     // The constrained step alone, timed: Lawson–Hanson NNLS on [A; √μ D] x ≈ [b; 0] — the
     // problem scipy.optimize.nnls solves from the dump (best of 5 runs).
     let stacked = if opts.nonnegative {
-        let rows = m + n - order;
+        let rows = m + d.nrows();
         let sq = mu.sqrt();
         let mut st = Vec::with_capacity(rows * n);
         for col in 0..n {
             st.extend_from_slice(&a[col * m..(col + 1) * m]);
-            for i in 0..n - order {
-                let d = match (order, col as isize - i as isize) {
-                    (1, 0) => -1.0,
-                    (1, 1) => 1.0,
-                    (2, 0) | (2, 2) => 1.0,
-                    (2, 1) => -2.0,
-                    _ => 0.0,
-                };
-                st.push(sq * d);
-            }
+            st.extend(d.column(col).iter().map(|v| sq * v));
         }
         let mut rhs = b.clone();
         rhs.resize(rows, 0.0);
