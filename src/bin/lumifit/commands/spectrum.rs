@@ -508,10 +508,8 @@ fn recover_cmd(a: &RecoverArgs) -> Result<()> {
     emit(&text)
 }
 
-/// The weighted system that [`recover`] solves, rebuilt with the same rules (rows T_j·Q_c·W·Δλ
-/// times the white-reference gain, each equation divided by its reading's standard error with a
-/// floor of 0.1 % of the largest reading; μ = λ·tr(AᵀA)/tr(DᵀD)) and checked against the
-/// recovery's residuals, as JSON for `--dump-system`.
+/// The weighted system that [`recover`] solves ([`lumifit::recovery::weighted_system`]; μ =
+/// λ·tr(AᵀA)/tr(DᵀD)), checked against the recovery's residuals, as JSON for `--dump-system`.
 fn system_json(
     model: &SensingModel,
     rgb: &[[f64; 3]],
@@ -522,32 +520,13 @@ fn system_json(
     solve_s: f64,
 ) -> Result<String> {
     let nb = model.transmission.len();
-    let n = model.grid_nm.len();
-    let m = 3 * nb;
-    let (weight, gains) = match quantity {
-        Quantity::Light => (None, None),
-        Quantity::Reflectance { weight, gains } => (Some(weight.as_slice()), gains.as_ref()),
-    };
-    let ymax = rgb
-        .iter()
-        .flatten()
-        .fold(0.0f64, |acc, &v| acc.max(v.abs()));
-    let floor = 1e-3 * ymax;
-    let mut a = vec![0.0; m * n];
-    let mut b = vec![0.0; m];
-    let mut sig = vec![1.0; m];
-    for j in 0..nb {
-        for c in 0..3 {
-            let r = 3 * j + c;
-            let s = std.map_or(floor, |s| s[j][c].abs().max(floor));
-            sig[r] = s;
-            b[r] = rgb[j][c] / s;
-            let g = gains.map_or(1.0, |g| g[j][c]);
-            for (i, v) in model.row(j, c, weight).into_iter().enumerate() {
-                a[i * m + r] = g * v / s;
-            }
-        }
-    }
+    let lumifit::recovery::WeightedSystem {
+        a,
+        b,
+        sigma: sig,
+        m,
+        n,
+    } = lumifit::recovery::weighted_system(model, rgb, std, quantity)?;
     // The rebuilt system must be the one solved: its residuals at x are the recovery's.
     let mut worst = 0.0f64;
     for j in 0..nb {
