@@ -823,32 +823,10 @@ impl<'c> Prepared<'c> {
     /// every state with a positive amplitude, rates distinct and in a plausible range, and a
     /// better fit than the nested model with one state fewer.
     fn acceptable(&self, r: &RawFit, prev_rss: Option<f64>) -> bool {
-        if !r.termination.converged() || !r.rss.is_finite() {
-            return false;
-        }
-        let (lo, hi) = self.log_rate_range();
-        if r.theta.iter().any(|t| !(*t >= lo - 3.0 && *t <= hi + 3.0)) {
-            return false;
-        }
-        let amp = |j: usize| {
-            r.c[j]
-                .iter()
-                .cloned()
-                .fold(r.a.get(j).copied().unwrap_or(0.0), f64::max)
-        };
-        let n = r.theta.len();
-        let amax = (0..n).map(amp).fold(0.0_f64, f64::max);
-        if !(amax > 0.0) || (0..n).any(|j| !(amp(j) > 1e-6 * amax)) {
-            return false;
-        }
-        for i in 0..n {
-            for j in i + 1..n {
-                if !((r.theta[i] - r.theta[j]).abs() > 0.05) {
-                    return false;
-                }
-            }
-        }
-        prev_rss.is_none_or(|p| r.rss < p)
+        r.termination.converged()
+            && r.rss.is_finite()
+            && !self.degenerate(r)
+            && prev_rss.is_none_or(|p| r.rss < p)
     }
 
     /// Whether a fit's states are degenerate — in effect a fit with fewer states: a state's
