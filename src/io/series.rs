@@ -60,78 +60,191 @@ pub struct ManifestRow {
     pub f_number: Option<f64>,
 }
 
+/// A manifest CSV split into records: comment (`#`) and blank lines skipped, the header's column
+/// names lower-cased, every data row checked to have as many fields as the header.
+#[derive(Debug, Clone)]
+pub struct ManifestTable<'a> {
+    /// Where the manifest came from (for messages).
+    pub source: &'a str,
+    /// 1-based line of the header.
+    pub header_line: usize,
+    /// The header as written.
+    pub header: &'a str,
+    /// Column names, trimmed and lower-cased.
+    pub columns: Vec<String>,
+    /// Data rows in order.
+    pub records: Vec<ManifestRecord<'a>>,
+}
+
+/// One data row of a [`ManifestTable`].
+#[derive(Debug, Clone)]
+pub struct ManifestRecord<'a> {
+    /// 1-based line in the manifest.
+    pub line: usize,
+    /// Trimmed fields.
+    pub fields: Vec<&'a str>,
+}
+
+impl<'a> ManifestTable<'a> {
+    /// Splits `text`; `expected` describes the header for the empty-manifest message.
+    ///
+    /// # Errors
+    /// [`Error::Parse`] for an empty manifest or a row whose field count differs from the header's.
+    pub fn parse(text: &'a str, source: &'a str, expected: &str) -> Result<Self> {
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim()))
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+        let Some((header_line, header)) = lines.next() else {
+            return Err(Error::parse(
+                source,
+                0,
+                format!("empty manifest; expected a header {expected}"),
+            ));
+        };
+        let columns: Vec<String> = header
+            .split(',')
+            .map(|s| s.trim().to_ascii_lowercase())
+            .collect();
+        let mut records = Vec::new();
+        for (line, l) in lines {
+            let fields: Vec<&str> = l.split(',').map(str::trim).collect();
+            if fields.len() != columns.len() {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!(
+                        "{} fields, expected {} as in the header",
+                        fields.len(),
+                        columns.len()
+                    ),
+                ));
+            }
+            records.push(ManifestRecord { line, fields });
+        }
+        Ok(ManifestTable {
+            source,
+            header_line,
+            header,
+            columns,
+            records,
+        })
+    }
+
+    /// Index of the column `name` (lower case).
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.columns.iter().position(|c| c == name)
+    }
+
+    /// The finite number in column `i` of `r`, `None` when the column is absent or the field
+    /// empty.
+    ///
+    /// # Errors
+    /// [`Error::Parse`] naming the line and column for a non-number or a non-finite value.
+    pub fn number(
+        &self,
+        r: &ManifestRecord<'_>,
+        i: Option<usize>,
+        name: &str,
+    ) -> Result<Option<f64>> {
+        let Some(i) = i else { return Ok(None) };
+        let s = r.fields[i];
+        if s.is_empty() {
+            return Ok(None);
+        }
+        let v: f64 = s.parse().map_err(|_| {
+            Error::parse(self.source, r.line, format!("{name} '{s}' is not a number"))
+        })?;
+        if !v.is_finite() {
+            return Err(Error::parse(
+                self.source,
+                r.line,
+                format!("{name} '{s}' is not finite"),
+            ));
+        }
+        Ok(Some(v))
+    }
+
+    /// The optional `exposure_s`, `iso`, `f_number` columns of `r`: negative is an error, 0 or
+    /// empty means "not given" (take EXIF).
+    ///
+    /// # Errors
+    /// [`Error::Parse`] naming the line for a malformed or negative value.
+    pub fn exposure(&self, r: &ManifestRecord<'_>) -> Result<[Option<f64>; 3]> {
+        let mut out = [None; 3];
+        for (k, name) in ["exposure_s", "iso", "f_number"].into_iter().enumerate() {
+            out[k] = match self.number(r, self.column(name), name)? {
+                Some(x) if x < 0.0 => {
+                    return Err(Error::parse(
+                        self.source,
+                        r.line,
+                        format!("{name} {x} is negative"),
+                    ))
+                }
+                Some(0.0) => None,
+                other => other,
+            };
+        }
+        Ok(out)
+    }
+}
+
+/// Exposure time, ISO and f-number of a frame: EXIF first, the manifest's `manifest` values as
+/// fall-back; a disagreement of more than 1 % is a warning (EXIF wins). `Err(name)` names the
+/// first value that neither gives.
+pub fn exif_or_manifest(
+    info: &FrameInfo,
+    manifest: [Option<f64>; 3],
+    warnings: &mut Vec<String>,
+) -> std::result::Result<[f64; 3], &'static str> {
+    let exif = [info.exposure_s, info.iso, info.f_number];
+    let mut out = [0.0; 3];
+    for (k, name) in ["exposure_s", "iso", "f_number"].into_iter().enumerate() {
+        if let (Some(a), Some(b)) = (exif[k], manifest[k]) {
+            if (a - b).abs() > 0.01 * a.abs().max(b.abs()) {
+                warnings.push(format!(
+                    "{}: {name} is {a} in EXIF but {b} in the manifest; using EXIF",
+                    info.file
+                ));
+            }
+        }
+        out[k] = exif[k].or(manifest[k]).ok_or(name)?;
+    }
+    Ok(out)
+}
+
 /// Parses a manifest CSV; files are resolved against `base` and must exist.
 ///
 /// # Errors
 /// [`Error::Parse`] with the manifest's name and line.
 pub fn parse_manifest(bytes: &[u8], source: &str, base: &Path) -> Result<Vec<ManifestRow>> {
+    const HEADER: &str = "file,time_s[,exposure_s,iso,f_number]";
     let text = std::str::from_utf8(bytes).map_err(|_| {
         Error::parse(
             source,
             0,
-            "not a text file; expected a CSV manifest file,time_s[,exposure_s,iso,f_number]",
+            format!("not a text file; expected a CSV manifest {HEADER}"),
         )
     })?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let Some((hline, header)) = lines.next() else {
+    let t = ManifestTable::parse(text, source, HEADER)?;
+    let (Some(i_file), Some(i_time)) = (t.column("file"), t.column("time_s")) else {
         return Err(Error::parse(
             source,
-            0,
-            "empty manifest; expected a header file,time_s[,exposure_s,iso,f_number]",
+            t.header_line,
+            format!(
+                "header '{}' lacks 'file' and 'time_s'; expected {HEADER}",
+                t.header
+            ),
         ));
     };
-    let cols: Vec<String> = header
-        .split(',')
-        .map(|s| s.trim().to_ascii_lowercase())
-        .collect();
-    let idx = |n: &str| cols.iter().position(|c| c == n);
-    let (Some(i_file), Some(i_time)) = (idx("file"), idx("time_s")) else {
-        return Err(Error::parse(
-            source,
-            hline,
-            format!("header '{header}' lacks 'file' and 'time_s'; expected file,time_s[,exposure_s,iso,f_number]"),
-        ));
-    };
-    let (i_exp, i_iso, i_f) = (idx("exposure_s"), idx("iso"), idx("f_number"));
     let mut rows = Vec::new();
-    for (line, l) in lines {
-        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
-        if fields.len() != cols.len() {
-            return Err(Error::parse(
-                source,
-                line,
-                format!(
-                    "{} fields, expected {} as in the header",
-                    fields.len(),
-                    cols.len()
-                ),
-            ));
-        }
-        let num = |i: Option<usize>, name: &str| -> Result<Option<f64>> {
-            let Some(i) = i else { return Ok(None) };
-            let s = fields[i];
-            if s.is_empty() {
-                return Ok(None);
-            }
-            let v: f64 = s
-                .parse()
-                .map_err(|_| Error::parse(source, line, format!("{name} '{s}' is not a number")))?;
-            if !v.is_finite() {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("{name} '{s}' is not finite"),
-                ));
-            }
-            Ok(Some(v))
-        };
-        let time_s = num(Some(i_time), "time_s")?
+    for r in &t.records {
+        let line = r.line;
+        let time_s = t
+            .number(r, Some(i_time), "time_s")?
             .ok_or_else(|| Error::parse(source, line, "time_s is empty"))?;
-        let f = fields[i_file];
+        let f = r.fields[i_file];
         if f.is_empty() {
             return Err(Error::parse(source, line, "file name is empty"));
         }
@@ -143,24 +256,14 @@ pub fn parse_manifest(bytes: &[u8], source: &str, base: &Path) -> Result<Vec<Man
                 format!("frame file '{}' does not exist", file.display()),
             ));
         }
-        let positive = |v: Option<f64>, name: &str| -> Result<Option<f64>> {
-            match v {
-                Some(x) if x < 0.0 => Err(Error::parse(
-                    source,
-                    line,
-                    format!("{name} {x} is negative"),
-                )),
-                Some(0.0) => Ok(None),
-                other => Ok(other),
-            }
-        };
+        let [exposure_s, iso, f_number] = t.exposure(r)?;
         rows.push(ManifestRow {
             file,
             line,
             time_s,
-            exposure_s: positive(num(i_exp, "exposure_s")?, "exposure_s")?,
-            iso: positive(num(i_iso, "iso")?, "iso")?,
-            f_number: positive(num(i_f, "f_number")?, "f_number")?,
+            exposure_s,
+            iso,
+            f_number,
         });
     }
     if rows.is_empty() {
@@ -180,32 +283,19 @@ pub struct SeriesOptions {
 
 /// Resolves the exposure of a frame: EXIF first, manifest as fall-back.
 fn resolve_exposure(info: &mut FrameInfo, row: Option<&ManifestRow>) -> Result<Exposure> {
-    let mut pick = |exif: Option<f64>, manifest: Option<f64>, name: &str| -> Result<f64> {
-        if let (Some(a), Some(b)) = (exif, manifest) {
-            if (a - b).abs() > 0.01 * a.abs().max(b.abs()) {
-                info.warnings.push(format!(
-                    "{}: {name} is {a} in EXIF but {b} in the manifest; using EXIF",
-                    info.file
-                ));
-            }
-        }
-        exif.or(manifest).ok_or_else(|| {
-            Error::invalid(
-                name,
-                format!(
-                    "{}: {name} is missing (or zero) in EXIF and not given in a manifest; list the frames in a manifest CSV with columns file,time_s,exposure_s,iso,f_number",
-                    info.file
-                ),
-            )
-        })
-    };
-    let t = pick(
-        info.exposure_s,
-        row.and_then(|r| r.exposure_s),
-        "exposure_s",
-    )?;
-    let iso = pick(info.iso, row.and_then(|r| r.iso), "iso")?;
-    let n = pick(info.f_number, row.and_then(|r| r.f_number), "f_number")?;
+    let manifest = row.map_or([None; 3], |r| [r.exposure_s, r.iso, r.f_number]);
+    let mut warnings = Vec::new();
+    let picked = exif_or_manifest(info, manifest, &mut warnings);
+    info.warnings.extend(warnings);
+    let [t, iso, n] = picked.map_err(|name| {
+        Error::invalid(
+            name,
+            format!(
+                "{}: {name} is missing (or zero) in EXIF and not given in a manifest; list the frames in a manifest CSV with columns file,time_s,exposure_s,iso,f_number",
+                info.file
+            ),
+        )
+    })?;
     Exposure::new(t, iso, n)
 }
 

@@ -29,7 +29,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use lumifit::capture::rng::SplitMix64;
 use lumifit::capture::{roi_stats, Exposure, FrameInfo, RgbFrame, Roi};
-use lumifit::io::{atomic_write, image::encode_tiff16, read_input, series::read_frame};
+use lumifit::io::series::{exif_or_manifest, read_frame, ManifestTable};
+use lumifit::io::{atomic_write, image::encode_tiff16, read_input};
 use lumifit::phosphor::excitation::ChargingSample;
 use lumifit::table::{as_text, parse_numeric_csv};
 use lumifit::Error;
@@ -86,67 +87,24 @@ fn parse_manifest(
     n_bands: usize,
 ) -> lumifit::Result<Vec<ChargingRow>> {
     let text = as_text(bytes, source, &format!("a CSV manifest {MANIFEST_HEADER}"))?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let Some((hline, header)) = lines.next() else {
-        return Err(Error::parse(
-            source,
-            0,
-            format!("empty manifest; expected a header {MANIFEST_HEADER}"),
-        ));
-    };
-    let cols: Vec<String> = header
-        .split(',')
-        .map(|s| s.trim().to_ascii_lowercase())
-        .collect();
-    let idx = |n: &str| cols.iter().position(|c| c == n);
-    let (Some(i_img), Some(i_band), Some(i_t)) = (idx("image"), idx("band"), idx("charge_s"))
+    let t = ManifestTable::parse(text, source, MANIFEST_HEADER)?;
+    let (Some(i_img), Some(i_band), Some(i_t)) =
+        (t.column("image"), t.column("band"), t.column("charge_s"))
     else {
         return Err(Error::parse(
             source,
-            hline,
+            t.header_line,
             format!(
-                "header '{header}' lacks 'image', 'band' or 'charge_s'; expected {MANIFEST_HEADER}"
+                "header '{}' lacks 'image', 'band' or 'charge_s'; expected {MANIFEST_HEADER}",
+                t.header
             ),
         ));
     };
-    let (i_exp, i_iso, i_f) = (idx("exposure_s"), idx("iso"), idx("f_number"));
     let mut rows = Vec::new();
-    for (line, l) in lines {
-        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
-        if fields.len() != cols.len() {
-            return Err(Error::parse(
-                source,
-                line,
-                format!(
-                    "{} fields, expected {} as in the header",
-                    fields.len(),
-                    cols.len()
-                ),
-            ));
-        }
-        let num = |i: Option<usize>, name: &str| -> lumifit::Result<Option<f64>> {
-            let Some(i) = i else { return Ok(None) };
-            let s = fields[i];
-            if s.is_empty() {
-                return Ok(None);
-            }
-            let v: f64 = s
-                .parse()
-                .map_err(|_| Error::parse(source, line, format!("{name} '{s}' is not a number")))?;
-            if !v.is_finite() {
-                return Err(Error::parse(
-                    source,
-                    line,
-                    format!("{name} '{s}' is not finite"),
-                ));
-            }
-            Ok(Some(v))
-        };
-        let band = num(Some(i_band), "band")?
+    for r in &t.records {
+        let line = r.line;
+        let band = t
+            .number(r, Some(i_band), "band")?
             .ok_or_else(|| Error::parse(source, line, "band is empty"))?;
         if band.fract() != 0.0 || band < 1.0 || band > n_bands as f64 {
             return Err(Error::parse(
@@ -157,7 +115,8 @@ fn parse_manifest(
                 ),
             ));
         }
-        let charge_s = num(Some(i_t), "charge_s")?
+        let charge_s = t
+            .number(r, Some(i_t), "charge_s")?
             .ok_or_else(|| Error::parse(source, line, "charge_s is empty"))?;
         if charge_s < 0.0 {
             return Err(Error::parse(
@@ -166,7 +125,7 @@ fn parse_manifest(
                 format!("charge_s {charge_s}; expected a charging time ≥ 0 s"),
             ));
         }
-        let name = fields[i_img];
+        let name = r.fields[i_img];
         if name.is_empty() {
             return Err(Error::parse(source, line, "image name is empty"));
         }
@@ -181,25 +140,15 @@ fn parse_manifest(
                 ),
             ));
         }
-        let positive = |v: Option<f64>, name: &str| -> lumifit::Result<Option<f64>> {
-            match v {
-                Some(x) if x < 0.0 => Err(Error::parse(
-                    source,
-                    line,
-                    format!("{name} {x} is negative"),
-                )),
-                Some(0.0) => Ok(None),
-                other => Ok(other),
-            }
-        };
+        let [exposure_s, iso, f_number] = t.exposure(r)?;
         rows.push(ChargingRow {
             image,
             line,
             band: band as usize - 1,
             charge_s,
-            exposure_s: positive(num(i_exp, "exposure_s")?, "exposure_s")?,
-            iso: positive(num(i_iso, "iso")?, "iso")?,
-            f_number: positive(num(i_f, "f_number")?, "f_number")?,
+            exposure_s,
+            iso,
+            f_number,
         });
     }
     if rows.is_empty() {
@@ -288,16 +237,8 @@ fn read_rois(path: &Path, n_bands: usize) -> Result<BTreeMap<usize, BandRoi>> {
 /// warning when both are given and differ by more than 1 %.
 fn exposure(info: &FrameInfo, row: &ChargingRow, source: &str) -> Result<(Exposure, Vec<String>)> {
     let mut warnings = Vec::new();
-    let mut pick = |exif: Option<f64>, manifest: Option<f64>, name: &str| -> Result<f64> {
-        if let (Some(a), Some(b)) = (exif, manifest) {
-            if (a - b).abs() > 0.01 * a.abs().max(b.abs()) {
-                warnings.push(format!(
-                    "{}: {name} is {a} in EXIF but {b} in the manifest; using EXIF",
-                    info.file
-                ));
-            }
-        }
-        exif.or(manifest).ok_or_else(|| {
+    let [t, iso, n] = exif_or_manifest(info, [row.exposure_s, row.iso, row.f_number], &mut warnings)
+        .map_err(|name| {
             Error::parse(
                 source,
                 row.line,
@@ -306,12 +247,7 @@ fn exposure(info: &FrameInfo, row: &ChargingRow, source: &str) -> Result<(Exposu
                     row.image.display()
                 ),
             )
-            .into()
-        })
-    };
-    let t = pick(info.exposure_s, row.exposure_s, "exposure_s")?;
-    let iso = pick(info.iso, row.iso, "iso")?;
-    let n = pick(info.f_number, row.f_number, "f_number")?;
+        })?;
     let e = Exposure::new(t, iso, n)
         .with_context(|| format!("{source}: line {}: {}", row.line, row.image.display()))?;
     Ok((e, warnings))
