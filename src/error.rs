@@ -116,6 +116,41 @@ pub enum Error {
         details: String,
     },
 
+    /// An output path names a file the command reads; refused before any work.
+    #[error("{flag}: output '{}' is the input '{}'; choose another output path (inputs are never replaced)", output.display(), input.display())]
+    OutputIsInput {
+        /// The option naming the output (`--out`, `--plot` …).
+        flag: String,
+        /// The output path as given.
+        output: PathBuf,
+        /// The input it equals, as given.
+        input: PathBuf,
+    },
+
+    /// A size a user asked for would need more memory (or work) than the limit allows.
+    #[error("{what}: {requested} would need about {needed_mib} MiB, over the limit of {limit_mib} MiB; {hint}")]
+    TooLarge {
+        /// The flag or field that set the size.
+        what: String,
+        /// The size as requested (e.g. `20000x20000 px`).
+        requested: String,
+        /// Estimated allocation in MiB.
+        needed_mib: u64,
+        /// The limit in MiB.
+        limit_mib: u64,
+        /// What to do instead.
+        hint: String,
+    },
+
+    /// A computation produced a non-finite number (overflow, 0/0) from an input.
+    #[error("{what} is not finite (overflow or 0/0) for input {input}; expected values whose result fits in f64")]
+    NonFinite {
+        /// The quantity that became non-finite.
+        what: String,
+        /// The input (file, field or value) that produced it.
+        input: String,
+    },
+
     /// A numerical method could not produce a result (singular matrix, no convergence where
     /// a result is required).
     #[error("numerical failure in {what}: {reason}")]
@@ -151,5 +186,19 @@ impl Error {
             path: path.into(),
             source,
         }
+    }
+}
+
+/// `Ok(())` when every value is finite, else [`Error::NonFinite`] naming `what` and the `input`
+/// that produced it. Commands call this on results before writing them, so an overflow is an
+/// error and never a `null` in JSON.
+pub fn ensure_finite(what: &str, input: &str, values: &[f64]) -> Result<()> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::NonFinite {
+            what: what.to_string(),
+            input: input.to_string(),
+        })
     }
 }

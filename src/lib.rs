@@ -5,7 +5,7 @@
 //!
 //! | layer | modules |
 //! |---|---|
-//! | L0 | [`error`], [`math`], [`table`], [`calib`] |
+//! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
 //! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`] |
 //! | L3 | [`io`], [`preset`], [`plot`] |
@@ -19,6 +19,7 @@ pub mod error;
 pub mod fit;
 pub mod fluor;
 pub mod io;
+pub mod limits;
 pub mod lvf;
 pub mod math;
 pub mod phosphor;

@@ -34,9 +34,20 @@ impl NumericTable {
     }
 }
 
-/// The bytes as UTF-8 text without NUL bytes, or a parse error naming the line where binary
-/// content starts and saying what was `expected` (e.g. "CSV text with a header row").
+/// The UTF-8 byte-order mark that spreadsheet programs (Excel) put at the start of a CSV.
+pub const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// `bytes` without a leading UTF-8 byte-order mark.
+pub fn strip_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(UTF8_BOM).unwrap_or(bytes)
+}
+
+/// The bytes as UTF-8 text without NUL bytes (a leading byte-order mark removed), or a parse
+/// error naming the line where binary content starts and saying what was `expected` (e.g. "CSV
+/// text with a header row"). Every text reader of lumifit goes through here, so BOM and CRLF
+/// files are read alike everywhere.
 pub fn as_text<'a>(bytes: &'a [u8], source: &str, expected: &str) -> Result<&'a str> {
+    let bytes = strip_bom(bytes);
     let text = std::str::from_utf8(bytes).map_err(|e| {
         let line = 1 + bytes[..e.valid_up_to()]
             .iter()
@@ -101,6 +112,19 @@ pub fn parse_numeric_csv(bytes: &[u8], source: &str) -> Result<NumericTable> {
                             "expected a header row with at least two named columns, found '{line}'"
                         ),
                     ));
+                }
+                for (i, f) in fields.iter().enumerate() {
+                    if let Some(j) = fields[..i].iter().position(|g| g.eq_ignore_ascii_case(f)) {
+                        return Err(Error::parse(
+                            source,
+                            line_no,
+                            format!(
+                                "column '{f}' appears twice (columns {} and {}); expected unique column names",
+                                j + 1,
+                                i + 1
+                            ),
+                        ));
+                    }
                 }
                 columns = vec![Vec::new(); fields.len()];
                 header = Some(fields.iter().map(|s| s.to_string()).collect());
@@ -178,6 +202,30 @@ mod tests {
     fn a_missing_column_names_the_line() {
         let e = parse_numeric_csv(b"wavelength_nm,value\n400,1\n410\n", "t.csv").unwrap_err();
         assert!(e.to_string().contains("t.csv: line 3"), "{e}");
+    }
+
+    #[test]
+    fn a_byte_order_mark_and_crlf_lines_are_read_like_plain_text() {
+        let t =
+            parse_numeric_csv(b"\xEF\xBB\xBFwavelength_nm,value\r\n400,1\r\n", "t.csv").unwrap();
+        assert_eq!(t.header, vec!["wavelength_nm", "value"]);
+        assert_eq!(t.columns[1], vec![1.0]);
+    }
+
+    #[test]
+    fn duplicated_column_names_are_refused_with_the_line() {
+        let e = parse_numeric_csv(b"time_s,r,r,b\n0,1,2,3\n", "h.csv").unwrap_err();
+        let s = e.to_string();
+        assert!(
+            s.contains("h.csv: line 1") && s.contains("'r' appears twice"),
+            "{s}"
+        );
+    }
+
+    #[test]
+    fn infinity_is_refused_like_nan() {
+        let e = parse_numeric_csv(b"wavelength_nm,value\n400,inf\n", "t.csv").unwrap_err();
+        assert!(e.to_string().contains("finite"), "{e}");
     }
 
     #[test]

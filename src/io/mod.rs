@@ -13,9 +13,12 @@ pub mod exif;
 pub mod filters;
 pub mod image;
 pub mod maps;
+pub mod output;
 pub mod raw;
 pub mod series;
 pub mod spectrum_csv;
+
+pub use output::Outputs;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
 /// synced, then renamed over the target.
@@ -59,6 +62,29 @@ pub fn read_input(path: &Path) -> Result<(Vec<u8>, String)> {
             .map_err(|e| Error::io("<stdin>", e))?;
         return Ok((buf, "<stdin>".to_string()));
     }
+    if path.is_dir() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "is a directory; expected a file",
+            ),
+        ));
+    }
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     Ok((bytes, path.display().to_string()))
+}
+
+/// Parses JSON text (a leading byte-order mark removed) into `T`; errors name the source, the
+/// line and the column serde reports, and what was expected.
+pub fn parse_json<T: serde::de::DeserializeOwned>(bytes: &[u8], source: &str) -> Result<T> {
+    let text = crate::table::as_text(bytes, source, "JSON text")?;
+    serde_json::from_str(text)
+        .map_err(|e| Error::parse(source, e.line(), format!("column {}: {e}", e.column())))
+}
+
+/// Reads and parses a JSON file (or `-` for standard input) into `T` (see [`parse_json`]).
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let (bytes, source) = read_input(path)?;
+    parse_json(&bytes, &source)
 }

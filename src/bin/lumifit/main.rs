@@ -9,9 +9,16 @@ use clap::Parser;
 fn main() {
     let cli = args::Cli::parse();
     if let Err(err) = commands::run(cli) {
-        eprintln!("error: {err}");
+        let mut shown = err.to_string();
+        eprintln!("error: {shown}");
+        // Library errors already include their cause in the message ("FILE: OS error"); print
+        // a cause only when it adds something, so no line is said twice.
         for cause in err.chain().skip(1) {
-            eprintln!("  caused by: {cause}");
+            let text = cause.to_string();
+            if !shown.contains(&text) {
+                eprintln!("  caused by: {text}");
+                shown.push_str(&text);
+            }
         }
         std::process::exit(2);
     }
