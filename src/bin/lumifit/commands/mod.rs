@@ -72,6 +72,20 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// A progress bar on standard error for `n` items (`prefix` while running, `items` named).
+pub fn progress_bar(n: usize, prefix: &'static str, items: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(n as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{prefix}} [{{bar:30}}] {{pos}}/{{len}} {items} {{elapsed}}"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_prefix(prefix);
+    bar
+}
+
 /// Writes a line to standard output; a closed pipe (`lumifit … | head`) is not an error.
 pub fn emit(text: &str) -> Result<()> {
     use std::io::Write;

@@ -87,13 +87,7 @@ fn load(a: &SeriesArgs, n_frames: usize) -> Result<LoadedSeries> {
         t0_s,
         darks: a.dark.clone(),
     };
-    let bar = indicatif::ProgressBar::new(n_frames as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar.set_prefix("decoding");
+    let bar = super::progress_bar(n_frames, "decoding", "frames");
     let loaded = load_series(&a.series, &options, &|| bar.inc(1));
     bar.finish_and_clear();
     let loaded = loaded.with_context(|| format!("loading series {}", a.series.display()))?;
