@@ -94,11 +94,7 @@ pub fn parse_captures(bytes: &[u8], source: &str, base: &Path) -> Result<Vec<Cap
 /// [`Error::Io`] naming the file when it cannot be read; the errors of [`parse_captures`].
 pub fn read_captures(path: &Path) -> Result<Vec<CaptureLine>> {
     let (bytes, source) = super::read_input(path)?;
-    let base = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    parse_captures(&bytes, &source, base)
+    parse_captures(&bytes, &source, path.parent().unwrap_or(Path::new(".")))
 }
 
 #[cfg(test)]

@@ -98,6 +98,14 @@ pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)
     let decoded = quiet_catch_unwind(|| rawloader::decode(&mut std::io::Cursor::new(bytes)));
     let raw = match decoded {
         Ok(Ok(r)) => r,
+        // rawloader catches some of its own panics and says so with a plea to file a bug; for a
+        // user that is the same malformed or truncated file as a panic caught here.
+        Ok(Err(e)) if format!("{e:?}").contains("Caught a panic") => {
+            return Err(decode_error(
+                path,
+                "rawloader failed on malformed or truncated data",
+            ))
+        }
         Ok(Err(e)) => return Err(decode_error(path, format!("rawloader: {e:?}"))),
         Err(cause) => {
             return Err(decode_error(

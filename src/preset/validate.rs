@@ -109,14 +109,21 @@ const MAX_NULLS_LISTED: usize = 8;
 /// 0/0). A preset's arrays hold numbers (or strings), never nulls, so each is a violation naming
 /// its JSON pointer. The provenance (free-form fit quality) is not checked.
 fn null_numbers(value: &Value) -> Vec<String> {
-    fn walk(v: &Value, pointer: &mut String, in_array: bool, found: &mut Vec<String>) {
+    // `strict`: a typed section without optional fields, where any null is a lost number.
+    fn walk(
+        v: &Value,
+        pointer: &mut String,
+        in_array: bool,
+        strict: bool,
+        found: &mut Vec<String>,
+    ) {
         match v {
-            Value::Null if in_array => found.push(pointer.clone()),
+            Value::Null if in_array || strict => found.push(pointer.clone()),
             Value::Array(items) => {
                 for (i, item) in items.iter().enumerate() {
                     let len = pointer.len();
                     pointer.push_str(&format!("/{i}"));
-                    walk(item, pointer, true, found);
+                    walk(item, pointer, true, strict, found);
                     pointer.truncate(len);
                 }
             }
@@ -125,7 +132,7 @@ fn null_numbers(value: &Value) -> Vec<String> {
                     let len = pointer.len();
                     pointer.push('/');
                     pointer.push_str(&k.replace('~', "~0").replace('/', "~1"));
-                    walk(item, pointer, false, found);
+                    walk(item, pointer, false, strict, found);
                     pointer.truncate(len);
                 }
             }
@@ -136,7 +143,8 @@ fn null_numbers(value: &Value) -> Vec<String> {
     if let Some(map) = value.as_object() {
         for (k, v) in map {
             if k != "provenance" {
-                walk(v, &mut format!("/{k}"), false, &mut found);
+                let strict = k == "fluorescence";
+                walk(v, &mut format!("/{k}"), false, strict, &mut found);
             }
         }
     }

@@ -141,7 +141,12 @@ fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
         .ok_or_else(|| anyhow::anyhow!("{flag}: '{s}' is not WxH, e.g. 1200x160"))?;
     let pixels = w.saturating_mul(h);
     lumifit::limits::check_memory(flag, s, pixels as u128, BYTES_PER_PIXEL)?;
-    lumifit::limits::check_count(flag, pixels, MAX_PIXELS, "pixels of a synthetic image")?;
+    lumifit::limits::check_count(
+        &format!("{flag} {s}"),
+        pixels,
+        MAX_PIXELS,
+        "pixels of a synthetic image",
+    )?;
     Ok((w, h))
 }
 
