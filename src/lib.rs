@@ -8,7 +8,7 @@
 //! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
 //! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`] |
-//! | L3 | [`io`], [`preset`], [`plot`] |
+//! | L3 | [`io`], [`preset`], [`plot`], [`pipeline`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
 
@@ -23,6 +23,7 @@ pub mod limits;
 pub mod lvf;
 pub mod math;
 pub mod phosphor;
+pub mod pipeline;
 pub mod plot;
 pub mod preset;
 pub mod recovery;

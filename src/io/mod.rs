@@ -9,13 +9,17 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+pub mod camera;
+pub mod captures;
 pub mod exif;
 pub mod filters;
 pub mod image;
+pub mod lvf_model;
 pub mod maps;
 pub mod output;
 pub mod raw;
 pub mod series;
+pub mod sources;
 pub mod spectrum_csv;
 
 pub use output::Outputs;

@@ -41,9 +41,9 @@ mod text;
 
 pub(crate) use text::{draw_text, fit_text, text_width, TextSpec};
 
-pub use colorchecker::{colorchecker_chart, SwatchPatch};
-pub use fluor::{fluor_chart, FluorChart};
-pub use lvf::lvf_chart;
+pub use colorchecker::{colorchecker_chart, colorchecker_chart_png, SwatchPatch};
+pub use fluor::{fluor_chart, fluor_chart_png, FluorChart};
+pub use lvf::{lvf_chart, lvf_chart_png};
 pub use phosphor::{decay_chart, integrator_chart};
 pub use phosphor_excitation::excitation_chart;
 pub use spectra::spectra_chart;

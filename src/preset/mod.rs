@@ -28,6 +28,7 @@
 //! file is left untouched.
 
 mod file;
+pub mod fluorescence;
 mod provenance;
 mod types;
 mod validate;
@@ -37,8 +38,9 @@ pub use file::{
 };
 pub use provenance::{sha256_hex, InputFile, Provenance};
 pub use types::{
-    Bands, LightPreset, MaterialPreset, OpenSection, PhosphorescenceSection, PhosphorescentState,
-    Preset, PresetDocument, ReflectanceSection,
+    Bands, FluorescenceBasis, FluorescenceDeltaE, FluorescenceResampling, FluorescenceRgb,
+    FluorescenceSection, GridNm, LightPreset, MaterialPreset, OpenSection, PhosphorescenceSection,
+    PhosphorescentState, Preset, PresetDocument, ReflectanceSection,
 };
 pub use validate::{schema_value, validate_value};
 
