@@ -29,6 +29,7 @@
 
 mod file;
 mod provenance;
+pub mod shader;
 mod types;
 mod validate;
 
