@@ -27,6 +27,7 @@
 //! reduction, and the snippets are parsed and validated by `naga` in `tests/shader_export.rs`.
 
 mod glsl;
+pub mod keyframes;
 mod twin;
 mod wgsl;
 
