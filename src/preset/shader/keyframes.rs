@@ -13,6 +13,9 @@
 //! smooth and convex per state, so the chord error has one maximum per segment; the dense check
 //! is a margin, and [`GlowKeyframes::max_error`] is measured again on 1000 points per segment).
 
+// Channel loops mirror the maths (rgb[ch]).
+#![allow(clippy::needless_range_loop)]
+
 use crate::error::{Error, Result};
 
 /// Tolerances of the keyframe placement.
