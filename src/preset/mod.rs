@@ -30,6 +30,7 @@
 mod file;
 pub mod fluorescence;
 mod provenance;
+pub mod shader;
 mod types;
 mod validate;
 
