@@ -7,7 +7,7 @@
 //! |---|---|
 //! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
-//! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`] |
+//! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`], [`photometry`] |
 //! | L3 | [`io`], [`preset`], [`plot`], [`pipeline`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
@@ -24,6 +24,7 @@ pub mod lvf;
 pub mod math;
 pub mod phosphor;
 pub mod pipeline;
+pub mod photometry;
 pub mod plot;
 pub mod preset;
 pub mod recovery;
