@@ -11,6 +11,7 @@ use crate::error::{Error, Result};
 
 pub mod exif;
 pub mod filters;
+pub mod hdr_image;
 pub mod image;
 pub mod maps;
 pub mod output;
