@@ -24,14 +24,14 @@
 //! **Frames** (Eq. 1–2, 4–7, §3.2, §3.7–3.9), per pixel (i, j) of the input I_on (linear sRGB):
 //!
 //! ```text
-//! XYZ_on = M_sRGB→XYZ · max(RGB, 0) / Y_on^max           (normalisation: brightest pixel Y = 1)
+//! XYZ_on = M_RGB→XYZ · max(RGB, 0) / Y_on^max           (normalisation: brightest pixel Y = 1)
 //! mask:   Y_on ≥ θ and Y_on > 0                           (θ = mask threshold, relative)
 //! I′_on = I_on inside the mask, 0 outside
 //! I^R_on = xyY(x_R, y_R, Y′_on)                            (§3.2: reference chromaticity)
 //! Δa = a′_on − a^R_on,  Δb = b′_on − b^R_on               (Eq. 1–2; Lab with white D65, Yn = 1)
 //! Z = (L′_on / L′_on^max)^γ                                (L′_on^max = 100 after normalisation)
 //! L_A = L_M(t)·Z,  a_A = a_M(t)·Z + τ_M(t)·Δa·k,  b_A = b_M(t)·Z + τ_M(t)·Δb·k   (Eq. 4–6)
-//! RGB_A = M_XYZ→sRGB · XYZ(Lab_A); negatives clamped to 0, then scaled so that Y (hence L*) is
+//! RGB_A = M_XYZ→RGB · XYZ(Lab_A) (M: sRGB primaries' NPM, see [`display_matrices`]); negatives clamped to 0, then scaled so that Y (hence L*) is
 //!         the Y of Lab_A again                             (§3.7)
 //! A = Gaussian(σ) * RGB_A                                  (§3.8, separable, edges clamped)
 //! frame = A + w(t)·I_off,  w(t) = 1 − (1 − c)·e^(−t/T)     (Eq. 7 with Y_ini = c·Y_off, Y_end = Y_off)
@@ -52,10 +52,21 @@ use rayon::prelude::*;
 use crate::colorimetry::lab::{
     intermediate_lightness_cie1976, intermediate_luminance_cie1976, xyz_to_lab,
 };
-use crate::colorimetry::rgb::{RgbSpace, D65_XY};
+use crate::colorimetry::rgb::{normalised_primary_matrix, RgbSpace, D65_XY};
 use crate::colorimetry::xyy::{xy_to_xyz, xyy_to_xyz};
 use crate::error::{Error, Result};
-use crate::math::linalg::{mat3_mul_vec, Mat3};
+use crate::math::linalg::{mat3_inv, mat3_mul_vec, Mat3};
+
+/// The display's RGB ↔ XYZ matrices: the normalised primary matrix of the sRGB primaries and
+/// D65, and its exact inverse `(rgb_to_xyz, xyz_to_rgb)`. colour's published 4-decimal sRGB
+/// matrices are not inverses of each other (they differ by ≈ 1e-4), which would move a
+/// reference-coloured patch off the Table 1 track by that much; the model needs a round trip.
+pub fn display_matrices() -> Result<(Mat3, Mat3)> {
+    let space = RgbSpace::srgb()?;
+    let to_xyz = normalised_primary_matrix(space.primaries_xy, space.whitepoint_xy)?;
+    let to_rgb = mat3_inv(&to_xyz)?;
+    Ok((to_xyz, to_rgb))
+}
 
 /// Table 1 sample times, s (every 4 s from 0 to 80 s).
 pub const TABLE1_T_S: [f64; 21] = [
@@ -447,9 +458,7 @@ impl Synthesizer {
         params: SynthParams,
     ) -> Result<Self> {
         params.validate()?;
-        let space = RgbSpace::srgb()?;
-        let to_xyz = space.matrix_rgb_to_xyz;
-        let to_rgb = space.matrix_xyz_to_rgb;
+        let (to_xyz, to_rgb) = display_matrices()?;
         if let Some(bg) = &background {
             if bg.width != input.width || bg.height != input.height {
                 return Err(Error::invalid(
@@ -641,13 +650,8 @@ pub fn gamut_correct(lab: [f64; 3], white: [f64; 3], to_rgb: &Mat3, to_xyz: &Mat
 
 /// [`gamut_correct`] of one Lab colour (white D65) → corrected linear sRGB.
 pub fn lab_to_display_rgb(lab: [f64; 3]) -> Result<[f64; 3]> {
-    let space = RgbSpace::srgb()?;
-    Ok(gamut_correct(
-        lab,
-        xy_to_xyz(D65_XY),
-        &space.matrix_xyz_to_rgb,
-        &space.matrix_rgb_to_xyz,
-    ))
+    let (to_xyz, to_rgb) = display_matrices()?;
+    Ok(gamut_correct(lab, xy_to_xyz(D65_XY), &to_rgb, &to_xyz))
 }
 
 /// Normalised Gaussian weights at −r…r with r = ceil(3σ) (a single 1 for σ = 0).
@@ -700,8 +704,8 @@ pub fn blur_rgb(rgb: &mut [f32], width: usize, height: usize, kernel: &[f32]) {
 
 /// CIE 1931 xy and Y of a linear sRGB colour (for tests and summaries); black gives D65.
 pub fn rgb_to_xyy(rgb: [f64; 3]) -> Result<[f64; 3]> {
-    let space = RgbSpace::srgb()?;
-    let xyz = mat3_mul_vec(&space.matrix_rgb_to_xyz, rgb);
+    let (to_xyz, _) = display_matrices()?;
+    let xyz = mat3_mul_vec(&to_xyz, rgb);
     Ok(crate::colorimetry::xyy::xyz_to_xyy(xyz, D65_XY))
 }
 
