@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+pub mod afterimage_csv;
 pub mod exif;
 pub mod filters;
 pub mod hdr_image;
