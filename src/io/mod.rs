@@ -9,11 +9,13 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+pub mod afterimage_csv;
 pub mod camera;
 pub mod captures;
 pub mod eulumdat;
 pub mod exif;
 pub mod filters;
+pub mod hdr_image;
 pub mod ies;
 pub mod image;
 pub mod lvf_model;

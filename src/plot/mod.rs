@@ -28,6 +28,7 @@ use plotters::style::{register_font, FontStyle};
 
 use crate::error::{Error, Result};
 
+pub mod afterimage;
 mod colorchecker;
 mod fluor;
 mod lvf;

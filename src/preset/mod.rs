@@ -27,6 +27,7 @@
 //! atomically ([`crate::io::atomic_write`]); an invalid preset is never written and an existing
 //! file is left untouched.
 
+pub mod afterimage;
 mod file;
 pub mod fluorescence;
 mod provenance;

@@ -1,6 +1,7 @@
 //! Command implementations: validate arguments into library types, call the library, print or
 //! write the results.
 
+pub mod afterimage;
 pub mod color;
 pub mod demo;
 pub mod fluor;
@@ -68,6 +69,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Series(c) => series::run(c),
         Command::Lvf(c) => lvf::run(c),
         Command::Spectrum(c) => spectrum::run(c),
+        Command::Afterimage(c) => afterimage::run(c),
         Command::Demo(a) => demo::run(&a),
     }
 }
