@@ -8,7 +8,7 @@ use lumifit::preset::shader::{
     band_to_rgb, fluorescence_snippet, phosphorescence_snippet, FluorTwin, PhosphorTwin,
     ShaderLanguage,
 };
-use lumifit::preset::{Bands, OpenSection, PhosphorescenceSection, PhosphorescentState};
+use lumifit::preset::{Bands, FluorescenceSection, PhosphorescenceSection, PhosphorescentState};
 
 /// f32 arithmetic (24-bit mantissa, ~6e-8) through a handful of operations and one exp: the
 /// twins must agree with the f64 library to 1e-6 relative (issue 17's bound).
@@ -214,9 +214,21 @@ fn the_phosphorescence_twin_steps_like_the_exact_library_simulation() {
     assert!(worst < TWIN_REL_TOL, "worst relative difference {worst:e}");
 }
 
-fn fluor_section(matrix: [[f64; 3]; 3]) -> OpenSection {
-    let v = serde_json::json!({"rgb": {"space": "srgb", "matrix": matrix, "projected_from_k": 3}});
-    v.as_object().unwrap().clone()
+/// A fluorescence section as `fluor reduce` writes it, with the given RGB matrix.
+fn fluor_section(matrix: [[f64; 3]; 3]) -> FluorescenceSection {
+    let xyz = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let v = serde_json::json!({
+        "method": "dual", "paper": "Fichet, Belcour & Barla 2024",
+        "basis": {"name": "xyz", "k": 3, "labels": ["X", "Y", "Z"], "observer": "cie2015-2",
+                  "grid_nm": {"start_nm": 380.0, "end_nm": 382.0, "step_nm": 1.0},
+                  "functions": [[0.1, 0.2, 0.1], [0.0, 0.1, 0.0], [0.5, 0.4, 0.3]]},
+        "matrix": xyz, "transfer_xyz": xyz, "xyz_matrix": xyz,
+        "rgb": {"space": "srgb", "matrix": matrix, "projected_from_k": 3, "equation": "Eq. 16"},
+        "resampling": {"clip_negatives": true, "zero_anti_stokes": true,
+                       "diagonal": "linear", "off_diagonal": "bilinear"},
+        "delta_e00": [], "worst_delta_e00": 0.0
+    });
+    serde_json::from_value(v).expect("a fluorescence section")
 }
 
 #[test]
@@ -259,8 +271,12 @@ fn snippets_refuse_presets_they_cannot_carry() {
     let e =
         phosphorescence_snippet("five", &section_of(&m), &srgb, ShaderLanguage::Wgsl).unwrap_err();
     assert!(e.to_string().contains("1 to 4 states"), "{e}");
-    let bad = serde_json::json!({"rgb": {"space": "srgb", "matrix": [[1, 0], [0, 1]]}});
-    let e =
-        fluorescence_snippet("bad", bad.as_object().unwrap(), ShaderLanguage::Glsl).unwrap_err();
-    assert!(e.to_string().contains("fluorescence.rgb"), "{e}");
+    // A matrix entry beyond f32 cannot become a shader constant.
+    let e = fluorescence_snippet(
+        "big",
+        &fluor_section([[1e39, 0.0, 0.0]; 3]),
+        ShaderLanguage::Glsl,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("fluorescence.rgb.matrix"), "{e}");
 }

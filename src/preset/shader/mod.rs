@@ -37,7 +37,7 @@ use crate::colorimetry::rgb::RgbSpace;
 use crate::colorimetry::{Observer, StandardObserver};
 use crate::error::{Error, Result};
 
-use super::types::{Bands, OpenSection, PhosphorescenceSection};
+use super::types::{Bands, FluorescenceSection, MaterialPreset, PhosphorescenceSection};
 
 /// Shading language of a snippet.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -122,7 +122,7 @@ pub fn phosphorescence_snippet(
 /// The snippet of a fluorescence section (its `rgb.matrix`).
 pub fn fluorescence_snippet(
     name: &str,
-    section: &OpenSection,
+    section: &FluorescenceSection,
     language: ShaderLanguage,
 ) -> Result<String> {
     let twin = FluorTwin::from_section(section)?;
@@ -130,6 +130,47 @@ pub fn fluorescence_snippet(
         ShaderLanguage::Wgsl => wgsl::fluorescence(name, &twin),
         ShaderLanguage::Glsl => glsl::fluorescence(name, &twin),
     })
+}
+
+/// Every snippet a material preset can carry, one after the other: phosphorescence (emission
+/// in linear `space`) and fluorescence (in the space its matrix was reduced to). `file` names the
+/// preset in the error when it has none of these sections.
+pub fn material_snippets(
+    preset: &MaterialPreset,
+    file: &str,
+    space: &RgbSpace,
+    language: ShaderLanguage,
+) -> Result<String> {
+    let mut parts = Vec::new();
+    if let Some(p) = &preset.phosphorescence {
+        parts.push(phosphorescence_snippet(&preset.name, p, space, language)?);
+    }
+    if let Some(f) = &preset.fluorescence {
+        parts.push(fluorescence_snippet(&preset.name, f, language)?);
+    }
+    if parts.is_empty() {
+        let present: Vec<&str> = [
+            ("reflectance", preset.reflectance.is_some()),
+            ("dispersion", preset.dispersion.is_some()),
+            ("afterimage", preset.afterimage.is_some()),
+        ]
+        .iter()
+        .filter(|(_, has)| *has)
+        .map(|(n, _)| *n)
+        .collect();
+        return Err(Error::invalid(
+            format!("{file}: sections"),
+            format!(
+                "no section a shader snippet carries (phosphorescence, fluorescence); the preset has: {}",
+                if present.is_empty() { "none".to_string() } else { present.join(", ") }
+            ),
+        ));
+    }
+    let header = match language {
+        ShaderLanguage::Wgsl => "",
+        ShaderLanguage::Glsl => "// Include in a GLSL 4.50 shader (after its #version line).\n",
+    };
+    Ok(format!("{header}{}", parts.join("\n")))
 }
 
 /// A float literal that parses back to exactly `v` in both languages (shortest round-trip form,

@@ -1,12 +1,10 @@
 //! Rust twins of the shader snippets: the same `f32` constants, the same operations in the same
 //! order, so a test of the twin against the library's `f64` computation is a test of the shader.
 
-use serde::Deserialize;
-
 use crate::colorimetry::rgb::RgbSpace;
 use crate::error::{Error, Result};
 
-use super::super::types::{OpenSection, PhosphorescenceSection};
+use super::super::types::{FluorescenceSection, PhosphorescenceSection};
 use super::{band_to_rgb, MAX_BANDS, MAX_STATES};
 
 /// The phosphorescence snippet's constants and its per-frame update, in `f32`.
@@ -137,13 +135,6 @@ impl PhosphorTwin {
     }
 }
 
-/// The part of a fluorescence section a snippet needs (`rgb.space`, `rgb.matrix`).
-#[derive(Debug, Clone, Deserialize)]
-struct RgbReduction {
-    space: String,
-    matrix: [[f64; 3]; 3],
-}
-
 /// The fluorescence snippet's constants and its shading, in `f32`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FluorTwin {
@@ -154,20 +145,9 @@ pub struct FluorTwin {
 }
 
 impl FluorTwin {
-    /// The constants of a fluorescence section.
-    pub fn from_section(section: &OpenSection) -> Result<Self> {
-        let rgb = section.get("rgb").ok_or_else(|| {
-            Error::invalid(
-                "fluorescence.rgb",
-                "missing; expected {space, matrix} as written by `lumifit fluor reduce`",
-            )
-        })?;
-        let red: RgbReduction = serde_json::from_value(rgb.clone()).map_err(|e| {
-            Error::invalid(
-                "fluorescence.rgb",
-                format!("{e}; expected {{\"space\": NAME, \"matrix\": [[3 numbers] × 3]}}"),
-            )
-        })?;
+    /// The constants of a fluorescence section (`rgb.space`, `rgb.matrix`).
+    pub fn from_section(section: &FluorescenceSection) -> Result<Self> {
+        let red = &section.rgb;
         let matrix = red.matrix.map(|row| row.map(|v| v as f32));
         crate::error::ensure_finite(
             "fluorescence.rgb.matrix (f32)",
@@ -179,7 +159,7 @@ impl FluorTwin {
                 .collect::<Vec<_>>(),
         )?;
         Ok(FluorTwin {
-            space: red.space,
+            space: red.space.clone(),
             matrix,
         })
     }
