@@ -2,12 +2,12 @@
 //!
 //! Stage 1 (foundation): colorimetry of the 24 ColorChecker patches (colour's N Ohta reflectances,
 //! embedded from `calib/`) under D65 and A — a CSV table, a PNG chart of the spectra and rendered
-//! swatches, and one material preset per patch, each read back to prove the round trip. Later
-//! pipelines add their stages here.
+//! swatches, and one material preset per patch, each read back to prove the round trip. All
+//! outputs are staged and committed together.
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use lumifit::calib;
 use lumifit::colorimetry::cat::Cat;
 use lumifit::colorimetry::delta_e::{delta_e, DeltaEMethod};
@@ -17,9 +17,10 @@ use lumifit::colorimetry::xyy::xyz_to_xy;
 use lumifit::colorimetry::{
     illuminant_white, sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod,
 };
-use lumifit::plot::{colorchecker_chart, SwatchPatch};
+use lumifit::io::Outputs;
+use lumifit::plot::{colorchecker_chart_png, SwatchPatch};
 use lumifit::preset::{
-    read_material, write_preset, MaterialPreset, Provenance, ReflectanceSection,
+    parse_preset, to_json_string, MaterialPreset, Preset, Provenance, ReflectanceSection,
 };
 use lumifit::spectrum::Spectrum;
 
@@ -60,14 +61,13 @@ fn slug(name: &str) -> String {
         .join("_")
 }
 
-/// Runs the demo, writing into `args.out`.
+/// Runs the demo, writing into `args.out` (created at the end, with everything else, only when
+/// every output was produced).
 pub fn run(args: &DemoArgs) -> Result<()> {
     let out = &args.out;
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("creating output directory {}", out.display()))?;
+    let mut outputs = Outputs::new();
+    outputs.declare_dir("--out", out)?;
     let presets_dir = out.join("presets");
-    std::fs::create_dir_all(&presets_dir)
-        .with_context(|| format!("creating output directory {}", presets_dir.display()))?;
 
     let table = calib::colorchecker_n_ohta();
     let observer = Observer::standard(StandardObserver::Cie1931_2)?;
@@ -139,7 +139,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         ));
     }
     let table_path = out.join("colorchecker_colorimetry.csv");
-    lumifit::io::atomic_write(&table_path, csv.as_bytes())?;
+    outputs.stage(&table_path, csv.as_bytes())?;
 
     // Chart.
     let n = patches.len();
@@ -153,12 +153,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         })
         .collect();
     let chart_path = out.join("colorchecker.png");
-    colorchecker_chart(
-        &chart_path,
+    let chart = colorchecker_chart_png(
         "ColorChecker (N Ohta) — CIE 1931 2°, ASTM E308, sRGB (CAT02 to D65)",
         &ILLUMINANTS.map(String::from),
         &swatches,
     )?;
+    outputs.stage(&chart_path, &chart)?;
 
     // One reflectance preset per patch, each read back.
     let command = format!("lumifit demo --out {}", out.display());
@@ -180,15 +180,17 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             )
         };
         let path = presets_dir.join(format!("{:02}_{}.json", i + 1, slug(sd.name())));
-        write_preset(&path, &preset)?;
-        let back = read_material(&path)?;
-        if back != preset {
+        let text = to_json_string(&preset)?;
+        let back = parse_preset(text.as_bytes(), &path.display().to_string())?;
+        if back != Preset::Material(preset) {
             anyhow::bail!(
                 "{}: the preset read back differs from the one written",
                 path.display()
             );
         }
+        outputs.stage(&path, text.as_bytes())?;
     }
+    outputs.commit()?;
 
     print_summary(&rows[..n], out, &table_path, &chart_path, &presets_dir)
 }

@@ -10,11 +10,11 @@ use lumifit::colorimetry::{Observer, StandardObserver};
 use lumifit::fluor::evaluate::{summarise, sweep, SweepRow};
 use lumifit::fluor::{
     evaluate, illuminant_on_grid, parse_donaldson, reduce, rgb_matrix, select_basis, xyz_matrix,
-    Basis, BasisKind, DonaldsonMatrix, EvalRow, GridIlluminant, Method, OperatorMatrix, Reduction,
+    Basis, BasisKind, DonaldsonMatrix, GridIlluminant, Method, OperatorMatrix, Reduction,
     ResampleOptions, WorkingGrid, DEFAULT_ILLUMINANTS, DEFAULT_METHODS,
 };
-use lumifit::io::sources::file_of;
-use lumifit::io::{read_input, spectrum_csv::read_multi_spectrum, Outputs};
+use lumifit::io::sources::{file_of, resolve_basis};
+use lumifit::io::{read_input, Outputs};
 use lumifit::plot::{fluor_chart_png, FluorChart};
 use lumifit::preset::fluorescence::{fluorescence_section, ReductionRecord};
 use lumifit::preset::{to_json_string, MaterialPreset, Provenance};
@@ -187,30 +187,16 @@ fn load_illuminants(names: &[String], xyz: &Basis) -> Result<Vec<GridIlluminant>
 }
 
 fn basis_from_arg(arg: &str, s: &Setup) -> Result<Basis> {
-    match BasisKind::from_name(arg) {
-        Ok(kind) => Ok(kind.build(&s.cmfs, &s.grid)?),
-        Err(e) => {
-            let p = Path::new(arg);
-            if !(p.is_file() || arg.to_ascii_lowercase().ends_with(".csv")) {
-                return Err(e.into());
-            }
-            let table = read_multi_spectrum(p)?;
-            let name = p
-                .file_stem()
-                .map(|x| x.to_string_lossy().into_owned())
-                .unwrap_or_else(|| arg.to_string());
-            let b = Basis::from_table(name, &table, &s.cmfs, &s.grid)?;
-            if b.transfer_residual() > 1e-3 {
-                eprintln!(
-                    "note: basis '{}' does not span the {} CMFs exactly (relative residual {:.3e}); T is the least-squares fit",
-                    b.name(),
-                    s.observer,
-                    b.transfer_residual()
-                );
-            }
-            Ok(b)
-        }
+    let b = resolve_basis(arg, &s.cmfs, &s.grid)?;
+    if b.transfer_residual() > 1e-3 {
+        eprintln!(
+            "note: basis '{}' does not span the {} CMFs exactly (relative residual {:.3e}); T is the least-squares fit",
+            b.name(),
+            s.observer,
+            b.transfer_residual()
+        );
     }
+    Ok(b)
 }
 
 fn methods_from_names(names: &[String], s: &Setup) -> Result<Vec<Method>> {
@@ -218,34 +204,6 @@ fn methods_from_names(names: &[String], s: &Setup) -> Result<Vec<Method>> {
         .iter()
         .map(|n| Ok(Method::from_name(n, &s.cmfs, &s.grid)?))
         .collect()
-}
-
-fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows())
-        .map(|r| (0..m.ncols()).map(|c| m[(r, c)]).collect())
-        .collect()
-}
-
-fn chart_for(
-    d: &DonaldsonMatrix,
-    reduced: Vec<(String, Vec<String>, nalgebra::DMatrix<f64>)>,
-    rows: &[EvalRow],
-) -> FluorChart {
-    let summary = summarise(rows);
-    FluorChart {
-        title: d.name().to_string(),
-        emission_nm: d.emission_nm().to_vec(),
-        excitation_nm: d.excitation_nm().to_vec(),
-        donaldson: rows_of(d.values()),
-        reduced: reduced
-            .into_iter()
-            .map(|(n, l, m)| (n, l, rows_of(&m)))
-            .collect(),
-        delta_e: summary
-            .into_iter()
-            .map(|(i, m, mean, _, _)| (i, m, mean))
-            .collect(),
-    }
 }
 
 /// Registers the illuminant files and a basis file as inputs.
@@ -316,7 +274,7 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
     // Validated as a reader would before it is staged.
     out.stage(&a.out, to_json_string(&preset)?.as_bytes())?;
     if let Some(plot) = &a.plot {
-        let chart = chart_for(
+        let chart = FluorChart::from_evaluation(
             &d,
             vec![(method.name(), basis.labels().to_vec(), red.p.clone())],
             &rows,
@@ -373,7 +331,7 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
                 ))
             })
             .collect::<Result<Vec<_>>>()?;
-        let mut chart = chart_for(d, reduced, &rows);
+        let mut chart = FluorChart::from_evaluation(d, reduced, &rows);
         if a.matrices.len() > 1 {
             chart.title = format!(
                 "{} (ΔE00: mean of {} materials)",
