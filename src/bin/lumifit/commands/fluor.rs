@@ -7,6 +7,7 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use lumifit::colorimetry::rgb::RgbSpace;
 use lumifit::colorimetry::{Observer, StandardObserver};
+use lumifit::error::ensure_finite;
 use lumifit::fluor::evaluate::{summarise, sweep, SweepRow};
 use lumifit::fluor::{
     evaluate, illuminant_on_grid, parse_donaldson, reduce, rgb_matrix, select_basis, xyz_matrix,
@@ -315,7 +316,16 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
     for p in &a.matrices {
         let (d, _) = load_matrix(p)?;
         let op = d.to_operator(&s.grid, s.options);
-        rows.extend(evaluate(&op, &methods, &ills, &s.xyz)?);
+        let evaluated = evaluate(&op, &methods, &ills, &s.xyz)?;
+        for r in &evaluated {
+            let values = [&[r.delta_e00][..], &r.xyz_reference, &r.xyz_reduced].concat();
+            ensure_finite(
+                &format!("ΔE00 ({}, {})", r.illuminant, r.method),
+                &p.display().to_string(),
+                &values,
+            )?;
+        }
+        rows.extend(evaluated);
         if first.is_none() {
             first = Some((d, op));
         }
@@ -397,6 +407,13 @@ fn run_select(a: &SelectArgs) -> Result<()> {
         });
     }
     let sel = select_basis(&op, &methods, &ills, &s.xyz, a.target_de)?;
+    for c in &sel.candidates {
+        ensure_finite(
+            &format!("ΔE00 of {}", c.method),
+            &a.matrix.display().to_string(),
+            &[c.worst_delta_e00, c.mean_delta_e00],
+        )?;
+    }
     if a.json {
         let mut v = serde_json::to_value(&sel)?;
         if let Value::Object(o) = &mut v {
@@ -446,6 +463,19 @@ fn run_sweep(a: &SweepArgs) -> Result<()> {
     let op = d.to_operator(&s.grid, s.options);
     let methods = methods_from_names(&a.methods, &s)?;
     let rows: Vec<SweepRow> = sweep(&op, &methods, &s.xyz, a.every)?;
+    for r in &rows {
+        let values = [
+            &r.xyz_reference[..],
+            &r.xyz_reduced,
+            &[r.y_reradiated_reference],
+        ]
+        .concat();
+        ensure_finite(
+            &format!("the sweep at {} nm ({})", r.excitation_nm, r.method),
+            &a.matrix.display().to_string(),
+            &values,
+        )?;
+    }
     let mut t = String::from(
         "excitation_nm,method,X_ref,Y_ref,Z_ref,X_red,Y_red,Z_red,Y_reradiated_ref,Y_lost\n",
     );
