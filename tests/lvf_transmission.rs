@@ -505,7 +505,10 @@ fn bad_input_is_rejected_with_exit_code_2_and_nothing_written() {
         "image,filter\nopen.tiff,none\nmissing.tiff,G1\n",
         &["--grid", "420:690:5"],
     );
-    assert_rejected(&o, &["captures.csv: line 3", "missing.tiff", "does not exist"]);
+    assert_rejected(
+        &o,
+        &["captures.csv: line 3", "missing.tiff", "does not exist"],
+    );
     // Filters not covering the grid.
     let o = bad_run(d, ok, &["--grid", "380:720:5"]);
     assert_rejected(
