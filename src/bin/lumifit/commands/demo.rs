@@ -9,14 +9,8 @@ use std::path::Path;
 
 use anyhow::Result;
 use lumifit::calib;
-use lumifit::colorimetry::cat::Cat;
-use lumifit::colorimetry::delta_e::{delta_e, DeltaEMethod};
-use lumifit::colorimetry::rgb::{xyz_to_rgb, RgbSpace};
-use lumifit::colorimetry::tristimulus::D65_XY;
-use lumifit::colorimetry::xyy::xyz_to_xy;
-use lumifit::colorimetry::{
-    illuminant_white, sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod,
-};
+use lumifit::colorimetry::summary::{patch_colours, patch_table_csv, srgb_hex, PatchColour};
+use lumifit::colorimetry::{Illuminant, Observer, StandardObserver, XyzMethod};
 use lumifit::io::Outputs;
 use lumifit::plot::{colorchecker_chart_png, SwatchPatch};
 use lumifit::preset::{
@@ -28,21 +22,6 @@ use super::emit;
 use crate::args::DemoArgs;
 
 const ILLUMINANTS: [&str; 2] = ["D65", "A"];
-
-struct PatchRow {
-    index: usize,
-    name: String,
-    illuminant: &'static str,
-    xyz: [f64; 3],
-    xy: [f64; 2],
-    lab: [f64; 3],
-    srgb: [f64; 3],
-}
-
-fn hex(srgb: [f64; 3]) -> String {
-    let b = srgb.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
-    format!("#{:02x}{:02x}{:02x}", b[0], b[1], b[2])
-}
 
 fn slug(name: &str) -> String {
     let s: String = name
@@ -72,72 +51,15 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let table = calib::colorchecker_n_ohta();
     let observer = Observer::standard(StandardObserver::Cie1931_2)?;
     let method = XyzMethod::AstmE308;
-    let srgb_space = RgbSpace::from_name("srgb")?;
     let patches: Vec<Spectrum> = (1..table.header.len())
         .map(|c| Spectrum::from_table(table, c).map(|s| s.with_name(table.header[c].clone())))
         .collect::<lumifit::Result<_>>()?;
-
-    let mut rows = Vec::new();
-    for ill_name in ILLUMINANTS {
-        let illuminant = Illuminant::standard(ill_name)?;
-        let white = illuminant_white(
-            observer,
-            &illuminant,
-            method,
-            patches[0].wavelengths(),
-            None,
-        )?;
-        let white_xy = xyz_to_xy(white.xyz, D65_XY);
-        for (i, sd) in patches.iter().enumerate() {
-            let t = sd_to_xyz(sd, observer, &illuminant, method, None)?;
-            let lab = t.lab_relative_to(&white)?;
-            // Rendered for an observer adapted to the illuminant: CAT02 from its white to sRGB's D65.
-            let srgb = xyz_to_rgb(
-                t.xyz.map(|v| v / 100.0),
-                white_xy,
-                &srgb_space,
-                Some(Cat::Cat02),
-                true,
-            )?;
-            rows.push(PatchRow {
-                index: i + 1,
-                name: sd.name().to_string(),
-                illuminant: ill_name,
-                xyz: t.xyz,
-                xy: xyz_to_xy(t.xyz, D65_XY),
-                lab,
-                srgb,
-            });
-        }
-    }
-
-    // Table.
-    let mut csv = String::from("patch,name,illuminant,observer,method,X,Y,Z,x,y,L,a,b,sRGB_R,sRGB_G,sRGB_B,hex,delta_e00_vs_D65\n");
-    for r in &rows {
-        let d65 = &rows[r.index - 1];
-        let de = delta_e(r.lab, d65.lab, DeltaEMethod::Ciede2000);
-        csv.push_str(&format!(
-            "{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{:.4}\n",
-            r.index,
-            r.name,
-            r.illuminant,
-            observer.name(),
-            method.cli_name(),
-            r.xyz[0],
-            r.xyz[1],
-            r.xyz[2],
-            r.xy[0],
-            r.xy[1],
-            r.lab[0],
-            r.lab[1],
-            r.lab[2],
-            r.srgb[0],
-            r.srgb[1],
-            r.srgb[2],
-            hex(r.srgb),
-            de
-        ));
-    }
+    let illuminants = ILLUMINANTS
+        .iter()
+        .map(|n| Illuminant::standard(n))
+        .collect::<lumifit::Result<Vec<_>>>()?;
+    let rows = patch_colours(&patches, observer, &illuminants, method)?;
+    let csv = patch_table_csv(&rows, observer.name(), method.cli_name());
     let table_path = out.join("colorchecker_colorimetry.csv");
     outputs.stage(&table_path, csv.as_bytes())?;
 
@@ -196,7 +118,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
 }
 
 fn print_summary(
-    d65: &[PatchRow],
+    d65: &[PatchColour],
     out: &Path,
     table: &Path,
     chart: &Path,
@@ -216,7 +138,7 @@ fn print_summary(
             r.lab[0],
             r.lab[1],
             r.lab[2],
-            hex(r.srgb)
+            srgb_hex(r.srgb)
         ));
     }
     text.push_str(&format!("\nwrote {}\n", table.display()));
