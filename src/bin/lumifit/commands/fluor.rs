@@ -17,8 +17,8 @@ use lumifit::fluor::{
 use lumifit::io::sources::{file_of, resolve_basis};
 use lumifit::io::{read_input, Outputs};
 use lumifit::plot::{fluor_chart_png, FluorChart};
-use lumifit::preset::fluorescence::{fluorescence_section, ReductionRecord};
-use lumifit::preset::{to_json_string, MaterialPreset, Provenance};
+use lumifit::preset::fluorescence::{fluorescence_preset, fluorescence_section, ReductionRecord};
+use lumifit::preset::to_json_string;
 use lumifit::spectrum::MultiSpectrum;
 use serde_json::{json, Value};
 
@@ -262,16 +262,7 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
         .map(|(p, b)| (p.as_path(), b.as_slice()))
         .collect();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let prov = Provenance::new(&command, &refs)
-        .with_fit_quality(json!({"worst_delta_e00": worst, "illuminants": a.illuminants}));
-    let mut preset = MaterialPreset::new(d.name(), prov);
-    preset.description = Some(format!(
-        "Fluorescent material '{}' reduced to the {} basis ({} reduction)",
-        d.name(),
-        basis.name(),
-        reduction.key()
-    ));
-    preset.fluorescence = Some(section);
+    let preset = fluorescence_preset(d.name(), section, &command, &refs, &a.illuminants);
     // Validated as a reader would before it is staged.
     out.stage(&a.out, to_json_string(&preset)?.as_bytes())?;
     if let Some(plot) = &a.plot {
