@@ -300,6 +300,26 @@ fn a_byte_order_mark_is_accepted_in_manifests_captures_donaldson_csvs_and_preset
     let bands: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("bands.json")).unwrap()).unwrap();
     assert_eq!(bands["schema"], "lumifit.lvf-bands/1");
+    // A photo listed in the captures is an input too.
+    let photo = d.join("c0.tiff");
+    let before = std::fs::read(&photo).unwrap();
+    let o = lumifit(&[
+        "lvf",
+        "transmission",
+        "--lvf",
+        &lvf,
+        "--captures",
+        &p(d, "caps.csv"),
+        "--source",
+        "D65",
+        "--target",
+        &p(d, "grey.csv"),
+        "--model",
+        "gaussian",
+        "--out",
+        &p(d, "c0.tiff"),
+    ]);
+    assert_input_kept(&o, &photo, &before);
 
     write(
         d,
@@ -368,6 +388,9 @@ fn overflow_is_exit_2_naming_the_input_never_a_null() {
     ]);
     assert_rejected(&o, &["huge_d.csv", "not finite"]);
     assert!(!d.join("p.json").exists(), "a preset was written");
+    let o = lumifit(&["fluor", "eval", &p(d, "huge_d.csv"), "--json"]);
+    assert_rejected(&o, &["huge_d.csv", "not finite"]);
+    assert!(o.stdout.is_empty());
 
     // A preset whose numbers were written as null is not valid.
     let o = lumifit(&[

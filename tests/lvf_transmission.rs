@@ -499,13 +499,16 @@ fn bad_input_is_rejected_with_exit_code_2_and_nothing_written() {
     std::fs::remove_file(d.join("out.json")).unwrap();
 
     let o = bad_run(d, "image,filter\nopen.tiff,none\ng1.tiff,L999\n", &[]);
-    assert_rejected(&o, &["captures.csv:3", "L999"]);
+    assert_rejected(&o, &["captures.csv: line 3", "L999"]);
     let o = bad_run(
         d,
         "image,filter\nopen.tiff,none\nmissing.tiff,G1\n",
         &["--grid", "420:690:5"],
     );
-    assert_rejected(&o, &["captures.csv:3", "missing.tiff", "does not exist"]);
+    assert_rejected(
+        &o,
+        &["captures.csv: line 3", "missing.tiff", "does not exist"],
+    );
     // Filters not covering the grid.
     let o = bad_run(d, ok, &["--grid", "380:720:5"]);
     assert_rejected(
@@ -525,7 +528,7 @@ fn bad_input_is_rejected_with_exit_code_2_and_nothing_written() {
     .unwrap();
     let cam = d.join("cam.csv").to_str().unwrap().to_string();
     let o = bad_run(d, ok, &["--camera", &cam, "--grid", "420:690:5"]);
-    assert_rejected(&o, &["cam.csv:3", "≥ 0"]);
+    assert_rejected(&o, &["cam.csv: line 3", "≥ 0"]);
     // An image smaller than the ROI.
     let small = lumifit::capture::synth::uniform_frame("small", 300, 8, [0.2; 3], 0.0, 1).unwrap();
     std::fs::write(
@@ -538,7 +541,7 @@ fn bad_input_is_rejected_with_exit_code_2_and_nothing_written() {
         "image,filter\nopen.tiff,none\nsmall.tiff,G1\n",
         &["--grid", "420:690:5"],
     );
-    assert_rejected(&o, &["captures.csv:3", "small.tiff", "300×8", "ROI"]);
+    assert_rejected(&o, &["captures.csv: line 3", "small.tiff", "300×8", "ROI"]);
     // An all-zero capture.
     let zero = lumifit::capture::synth::uniform_frame("zero", 600, 8, [0.0; 3], 0.0, 1).unwrap();
     std::fs::write(
@@ -551,6 +554,6 @@ fn bad_input_is_rejected_with_exit_code_2_and_nothing_written() {
         "image,filter\nopen.tiff,none\nzero.tiff,G1\n",
         &["--grid", "420:690:5"],
     );
-    assert_rejected(&o, &["captures.csv:3", "zero.tiff", "reads zero"]);
+    assert_rejected(&o, &["captures.csv: line 3", "zero.tiff", "reads zero"]);
     assert!(!d.join("out.json").exists(), "nothing is written on error");
 }

@@ -138,6 +138,114 @@ pub fn table_csv(rows: &[TableRow]) -> String {
     out
 }
 
+/// The colour of one reflectance patch under one illuminant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PatchColour {
+    /// 1-based patch number.
+    pub index: usize,
+    /// Patch name.
+    pub name: String,
+    /// Illuminant name.
+    pub illuminant: String,
+    /// Tristimulus values (0–100 scale).
+    pub xyz: [f64; 3],
+    /// Chromaticity.
+    pub xy: [f64; 2],
+    /// CIE L*a*b* relative to the illuminant's white.
+    pub lab: [f64; 3],
+    /// Gamma-encoded sRGB, rendered for an observer adapted to the illuminant (CAT02 from its
+    /// white to sRGB's D65), from XYZ / 100.
+    pub srgb: [f64; 3],
+}
+
+/// The colours of reflectance `patches` (all on one grid) under each illuminant in turn: all
+/// patches under the first illuminant, then all under the second, …
+///
+/// # Errors
+/// The errors of [`sd_to_xyz`] and the conversions; [`crate::Error::NonFinite`] naming the patch
+/// when a result overflows.
+pub fn patch_colours(
+    patches: &[Spectrum],
+    observer: &Observer,
+    illuminants: &[Illuminant],
+    method: XyzMethod,
+) -> Result<Vec<PatchColour>> {
+    let Some(first) = patches.first() else {
+        return Ok(Vec::new());
+    };
+    let srgb_space = RgbSpace::from_name("srgb")?;
+    let mut rows = Vec::with_capacity(patches.len() * illuminants.len());
+    for illuminant in illuminants {
+        let white = illuminant_white(observer, illuminant, method, first.wavelengths(), None)?;
+        let white_xy = xyz_to_xy(white.xyz, D65_XY);
+        for (i, sd) in patches.iter().enumerate() {
+            let t = sd_to_xyz(sd, observer, illuminant, method, None)?;
+            let lab = t.lab_relative_to(&white)?;
+            let srgb = xyz_to_rgb(
+                t.xyz.map(|v| v / 100.0),
+                white_xy,
+                &srgb_space,
+                Some(Cat::Cat02),
+                true,
+            )?;
+            for (what, v) in [("XYZ", &t.xyz[..]), ("Lab", &lab[..]), ("sRGB", &srgb[..])] {
+                ensure_finite(what, sd.name(), v)?;
+            }
+            rows.push(PatchColour {
+                index: i + 1,
+                name: sd.name().to_string(),
+                illuminant: illuminant.name().to_string(),
+                xyz: t.xyz,
+                xy: xyz_to_xy(t.xyz, D65_XY),
+                lab,
+                srgb,
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// `#rrggbb` of gamma-encoded sRGB (clipped to 0–1).
+pub fn srgb_hex(srgb: [f64; 3]) -> String {
+    let b = srgb.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
+    format!("#{:02x}{:02x}{:02x}", b[0], b[1], b[2])
+}
+
+/// A patch table as CSV
+/// `patch,name,illuminant,observer,method,X,Y,Z,x,y,L,a,b,sRGB_R,sRGB_G,sRGB_B,hex,delta_e00_vs_<first>`
+/// (rows as [`patch_colours`] orders them; the last column is CIEDE2000 against the same patch
+/// under the first illuminant).
+pub fn patch_table_csv(rows: &[PatchColour], observer: &str, method: &str) -> String {
+    let reference = rows.first().map_or("first", |r| r.illuminant.as_str());
+    let mut csv = format!("patch,name,illuminant,observer,method,X,Y,Z,x,y,L,a,b,sRGB_R,sRGB_G,sRGB_B,hex,delta_e00_vs_{reference}\n");
+    for r in rows {
+        let base = &rows[r.index - 1];
+        let de = super::delta_e::delta_e(r.lab, base.lab, super::delta_e::DeltaEMethod::Ciede2000);
+        csv.push_str(&format!(
+            "{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{:.4}\n",
+            r.index,
+            r.name,
+            r.illuminant,
+            observer,
+            method,
+            r.xyz[0],
+            r.xyz[1],
+            r.xyz[2],
+            r.xy[0],
+            r.xy[1],
+            r.lab[0],
+            r.lab[1],
+            r.lab[2],
+            r.srgb[0],
+            r.srgb[1],
+            r.srgb[2],
+            srgb_hex(r.srgb),
+            de
+        ));
+    }
+    csv
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -147,12 +255,14 @@ mod tests {
     fn an_overflowing_spectrum_is_an_error_naming_the_input_not_a_null() {
         let obs = Observer::standard(StandardObserver::Cie1931_2).unwrap();
         let ill = Illuminant::standard("D65").unwrap();
-        let wl: Vec<f64> = (0..=80).map(|i| 380.0 + 5.0 * i as f64).collect();
+        // 10 nm steps: summed by the integration method, 1e308 overflows to infinity.
+        let wl: Vec<f64> = (0..=3).map(|i| 380.0 + 10.0 * i as f64).collect();
         let huge = Spectrum::new("huge", wl.clone(), vec![1e308; wl.len()]).unwrap();
         let e = sd_colour(&huge, obs, &ill, XyzMethod::Integration, None, "huge.csv")
             .unwrap_err()
             .to_string();
         assert!(e.contains("huge.csv") && e.contains("not finite"), "{e}");
+        let wl: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * i as f64).collect();
         let grey = Spectrum::new("grey", wl.clone(), vec![0.5; wl.len()]).unwrap();
         let c = sd_colour(&grey, obs, &ill, XyzMethod::Integration, None, "grey.csv").unwrap();
         assert!((c.xyz[1] - 50.0).abs() < 1e-6, "{:?}", c.xyz);

@@ -110,6 +110,34 @@ pub fn resolve_passband(arg: &str) -> Result<Passband> {
         .map_err(|e| Error::invalid("--passband", format!("{src}: {e}")))
 }
 
+/// `--basis` of `fluor`: a built-in basis (`xyz`, `xyzu`, `xyz7u`) or a basis CSV
+/// `wavelength_nm,f1,…,fK` (named by its file stem), on `grid` for the observer's `cmfs`.
+///
+/// # Errors
+/// The unknown-name error when the argument is neither a built-in nor a CSV file; the reader's
+/// and [`crate::fluor::Basis::from_table`]'s errors for a file.
+pub fn resolve_basis(
+    arg: &str,
+    cmfs: &crate::spectrum::MultiSpectrum,
+    grid: &crate::fluor::WorkingGrid,
+) -> Result<crate::fluor::Basis> {
+    match crate::fluor::BasisKind::from_name(arg) {
+        Ok(kind) => kind.build(cmfs, grid),
+        Err(e) => {
+            let p = Path::new(arg);
+            if !(p.is_file() || arg.to_ascii_lowercase().ends_with(".csv")) {
+                return Err(e);
+            }
+            let table = super::spectrum_csv::read_multi_spectrum(p)?;
+            let name = p
+                .file_stem()
+                .map(|x| x.to_string_lossy().into_owned())
+                .unwrap_or_else(|| arg.to_string());
+            crate::fluor::Basis::from_table(name, &table, cmfs, grid)
+        }
+    }
+}
+
 /// `--white-reflectance`: a number in (0, 1.5] or a CSV `wavelength_nm,value`, sampled on
 /// `grid_nm` (values must be > 0 there).
 ///

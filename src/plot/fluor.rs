@@ -29,6 +29,36 @@ pub struct FluorChart {
     pub delta_e: Vec<(String, String, f64)>,
 }
 
+impl FluorChart {
+    /// The chart of a Donaldson matrix `d`, its reduced matrices `(method, labels, P)` and the
+    /// mean ΔE00 per illuminant and method of `rows`.
+    pub fn from_evaluation(
+        d: &crate::fluor::DonaldsonMatrix,
+        reduced: Vec<(String, Vec<String>, nalgebra::DMatrix<f64>)>,
+        rows: &[crate::fluor::EvalRow],
+    ) -> FluorChart {
+        fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
+            (0..m.nrows())
+                .map(|r| (0..m.ncols()).map(|c| m[(r, c)]).collect())
+                .collect()
+        }
+        FluorChart {
+            title: d.name().to_string(),
+            emission_nm: d.emission_nm().to_vec(),
+            excitation_nm: d.excitation_nm().to_vec(),
+            donaldson: rows_of(d.values()),
+            reduced: reduced
+                .into_iter()
+                .map(|(n, l, m)| (n, l, rows_of(&m)))
+                .collect(),
+            delta_e: crate::fluor::evaluate::summarise(rows)
+                .into_iter()
+                .map(|(i, m, mean, _, _)| (i, m, mean))
+                .collect(),
+        }
+    }
+}
+
 const SIZE_PX: (u32, u32) = (1800, 1000);
 
 /// A perceptually ordered colour map (magma-like) for t in 0–1.

@@ -5,9 +5,10 @@
 
 use nalgebra::DMatrix;
 
+use super::provenance::Provenance;
 use super::types::{
     FluorescenceBasis, FluorescenceDeltaE, FluorescenceResampling, FluorescenceRgb,
-    FluorescenceSection, GridNm, OpenSection,
+    FluorescenceSection, GridNm, MaterialPreset, OpenSection,
 };
 use crate::colorimetry::rgb::RgbSpace;
 use crate::error::{ensure_finite, Result};
@@ -119,4 +120,27 @@ pub fn fluorescence_section(r: &ReductionRecord<'_>, input: &str) -> Result<Fluo
         worst_delta_e00: worst,
         extra: OpenSection::new(),
     })
+}
+
+/// The material preset of a reduced fluorescent material: `section` with a description and the
+/// provenance (`command`, every input file with its bytes, the worst ΔE00 and the illuminants as
+/// fit quality).
+pub fn fluorescence_preset<P: AsRef<std::path::Path>>(
+    material: &str,
+    section: FluorescenceSection,
+    command: &str,
+    inputs: &[(P, &[u8])],
+    illuminants: &[String],
+) -> MaterialPreset {
+    let prov = Provenance::new(command, inputs).with_fit_quality(serde_json::json!({
+        "worst_delta_e00": section.worst_delta_e00,
+        "illuminants": illuminants,
+    }));
+    let mut preset = MaterialPreset::new(material, prov);
+    preset.description = Some(format!(
+        "Fluorescent material '{material}' reduced to the {} basis ({} reduction)",
+        section.basis.name, section.method
+    ));
+    preset.fluorescence = Some(section);
+    preset
 }

@@ -6,8 +6,17 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 /// lumifit — turn measurements of unusual appearance into material and light presets.
+///
+/// The `about` line lists only the pipelines that exist (not the package description, which
+/// names the planned ones too).
 #[derive(Debug, Parser)]
-#[command(name = "lumifit", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "lumifit",
+    version,
+    about = "Fit phosphorescence and fluorescence, and recover spectra through a linear variable filter, from measurements into renderer presets",
+    long_about = None,
+    propagate_version = true
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -30,7 +39,8 @@ pub enum Command {
     /// Photo series: inspect frames and extract region curves in relative radiance.
     #[command(subcommand)]
     Series(crate::commands::series::SeriesCommand),
-    /// Linear variable bandpass filter: wavelength calibration from lamp photos.
+    /// Linear variable bandpass filter: wavelength calibration from lamp photos, band
+    /// transmissions from photos through colour gels.
     #[command(subcommand)]
     Lvf(crate::commands::lvf::LvfCommand),
     /// Spectra from captures: recover a light or reflectance spectrum from a photo through the LVF.
@@ -42,7 +52,7 @@ pub enum Command {
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),
-    /// Run the main job on the bundled defaults and write its outputs.
+    /// ColorChecker colorimetry on the bundled data: a table, a chart and 24 reflectance presets.
     Demo(DemoArgs),
 }
 

@@ -2,24 +2,19 @@
 //!
 //! Stage 1 (foundation): colorimetry of the 24 ColorChecker patches (colour's N Ohta reflectances,
 //! embedded from `calib/`) under D65 and A — a CSV table, a PNG chart of the spectra and rendered
-//! swatches, and one material preset per patch, each read back to prove the round trip. Later
-//! pipelines add their stages here.
+//! swatches, and one material preset per patch, each read back to prove the round trip. All
+//! outputs are staged and committed together.
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use lumifit::calib;
-use lumifit::colorimetry::cat::Cat;
-use lumifit::colorimetry::delta_e::{delta_e, DeltaEMethod};
-use lumifit::colorimetry::rgb::{xyz_to_rgb, RgbSpace};
-use lumifit::colorimetry::tristimulus::D65_XY;
-use lumifit::colorimetry::xyy::xyz_to_xy;
-use lumifit::colorimetry::{
-    illuminant_white, sd_to_xyz, Illuminant, Observer, StandardObserver, XyzMethod,
-};
-use lumifit::plot::{colorchecker_chart, SwatchPatch};
+use lumifit::colorimetry::summary::{patch_colours, patch_table_csv, srgb_hex, PatchColour};
+use lumifit::colorimetry::{Illuminant, Observer, StandardObserver, XyzMethod};
+use lumifit::io::Outputs;
+use lumifit::plot::{colorchecker_chart_png, SwatchPatch};
 use lumifit::preset::{
-    read_material, write_preset, MaterialPreset, Provenance, ReflectanceSection,
+    parse_preset, to_json_string, MaterialPreset, Preset, Provenance, ReflectanceSection,
 };
 use lumifit::spectrum::Spectrum;
 
@@ -27,21 +22,6 @@ use super::emit;
 use crate::args::DemoArgs;
 
 const ILLUMINANTS: [&str; 2] = ["D65", "A"];
-
-struct PatchRow {
-    index: usize,
-    name: String,
-    illuminant: &'static str,
-    xyz: [f64; 3],
-    xy: [f64; 2],
-    lab: [f64; 3],
-    srgb: [f64; 3],
-}
-
-fn hex(srgb: [f64; 3]) -> String {
-    let b = srgb.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
-    format!("#{:02x}{:02x}{:02x}", b[0], b[1], b[2])
-}
 
 fn slug(name: &str) -> String {
     let s: String = name
@@ -60,86 +40,28 @@ fn slug(name: &str) -> String {
         .join("_")
 }
 
-/// Runs the demo, writing into `args.out`.
+/// Runs the demo, writing into `args.out` (created at the end, with everything else, only when
+/// every output was produced).
 pub fn run(args: &DemoArgs) -> Result<()> {
     let out = &args.out;
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("creating output directory {}", out.display()))?;
+    let mut outputs = Outputs::new();
+    outputs.declare_dir("--out", out)?;
     let presets_dir = out.join("presets");
-    std::fs::create_dir_all(&presets_dir)
-        .with_context(|| format!("creating output directory {}", presets_dir.display()))?;
 
     let table = calib::colorchecker_n_ohta();
     let observer = Observer::standard(StandardObserver::Cie1931_2)?;
     let method = XyzMethod::AstmE308;
-    let srgb_space = RgbSpace::from_name("srgb")?;
     let patches: Vec<Spectrum> = (1..table.header.len())
         .map(|c| Spectrum::from_table(table, c).map(|s| s.with_name(table.header[c].clone())))
         .collect::<lumifit::Result<_>>()?;
-
-    let mut rows = Vec::new();
-    for ill_name in ILLUMINANTS {
-        let illuminant = Illuminant::standard(ill_name)?;
-        let white = illuminant_white(
-            observer,
-            &illuminant,
-            method,
-            patches[0].wavelengths(),
-            None,
-        )?;
-        let white_xy = xyz_to_xy(white.xyz, D65_XY);
-        for (i, sd) in patches.iter().enumerate() {
-            let t = sd_to_xyz(sd, observer, &illuminant, method, None)?;
-            let lab = t.lab_relative_to(&white)?;
-            // Rendered for an observer adapted to the illuminant: CAT02 from its white to sRGB's D65.
-            let srgb = xyz_to_rgb(
-                t.xyz.map(|v| v / 100.0),
-                white_xy,
-                &srgb_space,
-                Some(Cat::Cat02),
-                true,
-            )?;
-            rows.push(PatchRow {
-                index: i + 1,
-                name: sd.name().to_string(),
-                illuminant: ill_name,
-                xyz: t.xyz,
-                xy: xyz_to_xy(t.xyz, D65_XY),
-                lab,
-                srgb,
-            });
-        }
-    }
-
-    // Table.
-    let mut csv = String::from("patch,name,illuminant,observer,method,X,Y,Z,x,y,L,a,b,sRGB_R,sRGB_G,sRGB_B,hex,delta_e00_vs_D65\n");
-    for r in &rows {
-        let d65 = &rows[r.index - 1];
-        let de = delta_e(r.lab, d65.lab, DeltaEMethod::Ciede2000);
-        csv.push_str(&format!(
-            "{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{:.4}\n",
-            r.index,
-            r.name,
-            r.illuminant,
-            observer.name(),
-            method.cli_name(),
-            r.xyz[0],
-            r.xyz[1],
-            r.xyz[2],
-            r.xy[0],
-            r.xy[1],
-            r.lab[0],
-            r.lab[1],
-            r.lab[2],
-            r.srgb[0],
-            r.srgb[1],
-            r.srgb[2],
-            hex(r.srgb),
-            de
-        ));
-    }
+    let illuminants = ILLUMINANTS
+        .iter()
+        .map(|n| Illuminant::standard(n))
+        .collect::<lumifit::Result<Vec<_>>>()?;
+    let rows = patch_colours(&patches, observer, &illuminants, method)?;
+    let csv = patch_table_csv(&rows, observer.name(), method.cli_name());
     let table_path = out.join("colorchecker_colorimetry.csv");
-    lumifit::io::atomic_write(&table_path, csv.as_bytes())?;
+    outputs.stage(&table_path, csv.as_bytes())?;
 
     // Chart.
     let n = patches.len();
@@ -153,12 +75,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         })
         .collect();
     let chart_path = out.join("colorchecker.png");
-    colorchecker_chart(
-        &chart_path,
+    let chart = colorchecker_chart_png(
         "ColorChecker (N Ohta) — CIE 1931 2°, ASTM E308, sRGB (CAT02 to D65)",
         &ILLUMINANTS.map(String::from),
         &swatches,
     )?;
+    outputs.stage(&chart_path, &chart)?;
 
     // One reflectance preset per patch, each read back.
     let command = format!("lumifit demo --out {}", out.display());
@@ -180,21 +102,23 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             )
         };
         let path = presets_dir.join(format!("{:02}_{}.json", i + 1, slug(sd.name())));
-        write_preset(&path, &preset)?;
-        let back = read_material(&path)?;
-        if back != preset {
+        let text = to_json_string(&preset)?;
+        let back = parse_preset(text.as_bytes(), &path.display().to_string())?;
+        if back != Preset::Material(preset) {
             anyhow::bail!(
                 "{}: the preset read back differs from the one written",
                 path.display()
             );
         }
+        outputs.stage(&path, text.as_bytes())?;
     }
+    outputs.commit()?;
 
     print_summary(&rows[..n], out, &table_path, &chart_path, &presets_dir)
 }
 
 fn print_summary(
-    d65: &[PatchRow],
+    d65: &[PatchColour],
     out: &Path,
     table: &Path,
     chart: &Path,
@@ -214,7 +138,7 @@ fn print_summary(
             r.lab[0],
             r.lab[1],
             r.lab[2],
-            hex(r.srgb)
+            srgb_hex(r.srgb)
         ));
     }
     text.push_str(&format!("\nwrote {}\n", table.display()));

@@ -7,17 +7,18 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use lumifit::colorimetry::rgb::RgbSpace;
 use lumifit::colorimetry::{Observer, StandardObserver};
+use lumifit::error::ensure_finite;
 use lumifit::fluor::evaluate::{summarise, sweep, SweepRow};
 use lumifit::fluor::{
     evaluate, illuminant_on_grid, parse_donaldson, reduce, rgb_matrix, select_basis, xyz_matrix,
-    Basis, BasisKind, DonaldsonMatrix, EvalRow, GridIlluminant, Method, OperatorMatrix, Reduction,
+    Basis, BasisKind, DonaldsonMatrix, GridIlluminant, Method, OperatorMatrix, Reduction,
     ResampleOptions, WorkingGrid, DEFAULT_ILLUMINANTS, DEFAULT_METHODS,
 };
-use lumifit::io::sources::file_of;
-use lumifit::io::{read_input, spectrum_csv::read_multi_spectrum, Outputs};
+use lumifit::io::sources::{file_of, resolve_basis};
+use lumifit::io::{read_input, Outputs};
 use lumifit::plot::{fluor_chart_png, FluorChart};
-use lumifit::preset::fluorescence::{fluorescence_section, ReductionRecord};
-use lumifit::preset::{to_json_string, MaterialPreset, Provenance};
+use lumifit::preset::fluorescence::{fluorescence_preset, fluorescence_section, ReductionRecord};
+use lumifit::preset::to_json_string;
 use lumifit::spectrum::MultiSpectrum;
 use serde_json::{json, Value};
 
@@ -187,30 +188,16 @@ fn load_illuminants(names: &[String], xyz: &Basis) -> Result<Vec<GridIlluminant>
 }
 
 fn basis_from_arg(arg: &str, s: &Setup) -> Result<Basis> {
-    match BasisKind::from_name(arg) {
-        Ok(kind) => Ok(kind.build(&s.cmfs, &s.grid)?),
-        Err(e) => {
-            let p = Path::new(arg);
-            if !(p.is_file() || arg.to_ascii_lowercase().ends_with(".csv")) {
-                return Err(e.into());
-            }
-            let table = read_multi_spectrum(p)?;
-            let name = p
-                .file_stem()
-                .map(|x| x.to_string_lossy().into_owned())
-                .unwrap_or_else(|| arg.to_string());
-            let b = Basis::from_table(name, &table, &s.cmfs, &s.grid)?;
-            if b.transfer_residual() > 1e-3 {
-                eprintln!(
-                    "note: basis '{}' does not span the {} CMFs exactly (relative residual {:.3e}); T is the least-squares fit",
-                    b.name(),
-                    s.observer,
-                    b.transfer_residual()
-                );
-            }
-            Ok(b)
-        }
+    let b = resolve_basis(arg, &s.cmfs, &s.grid)?;
+    if b.transfer_residual() > 1e-3 {
+        eprintln!(
+            "note: basis '{}' does not span the {} CMFs exactly (relative residual {:.3e}); T is the least-squares fit",
+            b.name(),
+            s.observer,
+            b.transfer_residual()
+        );
     }
+    Ok(b)
 }
 
 fn methods_from_names(names: &[String], s: &Setup) -> Result<Vec<Method>> {
@@ -218,34 +205,6 @@ fn methods_from_names(names: &[String], s: &Setup) -> Result<Vec<Method>> {
         .iter()
         .map(|n| Ok(Method::from_name(n, &s.cmfs, &s.grid)?))
         .collect()
-}
-
-fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows())
-        .map(|r| (0..m.ncols()).map(|c| m[(r, c)]).collect())
-        .collect()
-}
-
-fn chart_for(
-    d: &DonaldsonMatrix,
-    reduced: Vec<(String, Vec<String>, nalgebra::DMatrix<f64>)>,
-    rows: &[EvalRow],
-) -> FluorChart {
-    let summary = summarise(rows);
-    FluorChart {
-        title: d.name().to_string(),
-        emission_nm: d.emission_nm().to_vec(),
-        excitation_nm: d.excitation_nm().to_vec(),
-        donaldson: rows_of(d.values()),
-        reduced: reduced
-            .into_iter()
-            .map(|(n, l, m)| (n, l, rows_of(&m)))
-            .collect(),
-        delta_e: summary
-            .into_iter()
-            .map(|(i, m, mean, _, _)| (i, m, mean))
-            .collect(),
-    }
 }
 
 /// Registers the illuminant files and a basis file as inputs.
@@ -303,20 +262,11 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
         .map(|(p, b)| (p.as_path(), b.as_slice()))
         .collect();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let prov = Provenance::new(&command, &refs)
-        .with_fit_quality(json!({"worst_delta_e00": worst, "illuminants": a.illuminants}));
-    let mut preset = MaterialPreset::new(d.name(), prov);
-    preset.description = Some(format!(
-        "Fluorescent material '{}' reduced to the {} basis ({} reduction)",
-        d.name(),
-        basis.name(),
-        reduction.key()
-    ));
-    preset.fluorescence = Some(section);
+    let preset = fluorescence_preset(d.name(), section, &command, &refs, &a.illuminants);
     // Validated as a reader would before it is staged.
     out.stage(&a.out, to_json_string(&preset)?.as_bytes())?;
     if let Some(plot) = &a.plot {
-        let chart = chart_for(
+        let chart = FluorChart::from_evaluation(
             &d,
             vec![(method.name(), basis.labels().to_vec(), red.p.clone())],
             &rows,
@@ -357,7 +307,16 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
     for p in &a.matrices {
         let (d, _) = load_matrix(p)?;
         let op = d.to_operator(&s.grid, s.options);
-        rows.extend(evaluate(&op, &methods, &ills, &s.xyz)?);
+        let evaluated = evaluate(&op, &methods, &ills, &s.xyz)?;
+        for r in &evaluated {
+            let values = [&[r.delta_e00][..], &r.xyz_reference, &r.xyz_reduced].concat();
+            ensure_finite(
+                &format!("ΔE00 ({}, {})", r.illuminant, r.method),
+                &p.display().to_string(),
+                &values,
+            )?;
+        }
+        rows.extend(evaluated);
         if first.is_none() {
             first = Some((d, op));
         }
@@ -373,7 +332,7 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
                 ))
             })
             .collect::<Result<Vec<_>>>()?;
-        let mut chart = chart_for(d, reduced, &rows);
+        let mut chart = FluorChart::from_evaluation(d, reduced, &rows);
         if a.matrices.len() > 1 {
             chart.title = format!(
                 "{} (ΔE00: mean of {} materials)",
@@ -439,6 +398,13 @@ fn run_select(a: &SelectArgs) -> Result<()> {
         });
     }
     let sel = select_basis(&op, &methods, &ills, &s.xyz, a.target_de)?;
+    for c in &sel.candidates {
+        ensure_finite(
+            &format!("ΔE00 of {}", c.method),
+            &a.matrix.display().to_string(),
+            &[c.worst_delta_e00, c.mean_delta_e00],
+        )?;
+    }
     if a.json {
         let mut v = serde_json::to_value(&sel)?;
         if let Value::Object(o) = &mut v {
@@ -488,6 +454,19 @@ fn run_sweep(a: &SweepArgs) -> Result<()> {
     let op = d.to_operator(&s.grid, s.options);
     let methods = methods_from_names(&a.methods, &s)?;
     let rows: Vec<SweepRow> = sweep(&op, &methods, &s.xyz, a.every)?;
+    for r in &rows {
+        let values = [
+            &r.xyz_reference[..],
+            &r.xyz_reduced,
+            &[r.y_reradiated_reference],
+        ]
+        .concat();
+        ensure_finite(
+            &format!("the sweep at {} nm ({})", r.excitation_nm, r.method),
+            &a.matrix.display().to_string(),
+            &values,
+        )?;
+    }
     let mut t = String::from(
         "excitation_nm,method,X_ref,Y_ref,Z_ref,X_red,Y_red,Z_red,Y_reradiated_ref,Y_lost\n",
     );

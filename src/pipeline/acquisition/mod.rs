@@ -1,0 +1,53 @@
+//! Acquisition glue: the LVF domain (`lvf`: geometry, band files, band-transmission solve) joined
+//! with the spectral-recovery domain (`recovery`, which knows no LVF) and the readers of `io`.
+//!
+//! - [`band_transmissions`] (`lumifit lvf transmission`): `lvf.json`, `captures.csv`, the gel
+//!   table, the light source, the target and the camera become one
+//!   [`TransmissionProblem`] on a 1 nm quadrature grid, solved by
+//!   [`crate::lvf::transmission::solve_transmissions`] (Nalbach et al. 2017 §4.2).
+//! - [`recover_spectrum`] (`lumifit spectrum recover`): a band file (`lvf_bands.json`, or the
+//!   `lvf.json` alone with parametric Gaussian bands) and the camera become a
+//!   [`SensingModel`]; a photo or a readings CSV gives the band readings; the light or a
+//!   reflectance factor is recovered by [`crate::recovery::recover`].
+//!
+//! Every file is read here (through `io`), never by the binary, and every input file a run will
+//! read is listed beforehand ([`TransmissionInputs::files`], [`RecoverInputs::files`]) so the
+//! command can refuse an output that would replace one of them.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+mod recover;
+mod transmission;
+
+pub use recover::{
+    parse_recovery_grid, read_band_readings, read_band_source, recover_spectrum, recovery_csv,
+    recovery_plot_png, recovery_summary, BandSource, Comparison, RecoverInputs, RecoverOutcome,
+    Rgb, MAX_RECOVERY_GRID_STEPS,
+};
+pub use transmission::{
+    band_transmissions, parse_transmission_grid, transmission_summary, TransmissionConfig,
+    TransmissionInputs, COVERAGE_LEVEL,
+};
+
+pub(super) fn range(w: &[f64]) -> (f64, f64) {
+    (w[0], w[w.len() - 1])
+}
+
+/// Reads a JSON file as text (BOM removed) and its source name.
+pub(super) fn read_json_text(path: &Path, expected: &str) -> Result<(String, String)> {
+    let (bytes, src) = crate::io::read_input(path)?;
+    let text = crate::table::as_text(&bytes, &src, expected)?.to_string();
+    Ok((text, src))
+}
+
+pub(super) fn json_value(text: &str, src: &str) -> Result<serde_json::Value> {
+    serde_json::from_str(text).map_err(|e| {
+        Error::parse(
+            src,
+            e.line(),
+            format!("column {}: not JSON: {e}", e.column()),
+        )
+    })
+}
