@@ -25,7 +25,7 @@
 //!
 //! ```text
 //! XYZ_on = M_RGB→XYZ · max(RGB, 0) / Y_on^max           (normalisation: brightest pixel Y = 1)
-//! mask:   Y_on ≥ θ and Y_on > 0                           (θ = mask threshold, relative)
+//! mask:   max(R, G, B) ≥ θ · max over the image of max(R, G, B), and Y_on > 0
 //! I′_on = I_on inside the mask, 0 outside
 //! I^R_on = xyY(x_R, y_R, Y′_on)                            (§3.2: reference chromaticity)
 //! Δa = a′_on − a^R_on,  Δb = b′_on − b^R_on               (Eq. 1–2; Lab with white D65, Yn = 1)
@@ -265,8 +265,9 @@ pub fn time_grid(step_s: f64, end_s: f64) -> Result<Vec<f64>> {
 /// How the mask I′_on is made (§3.2 leaves it open).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MaskRule {
-    /// A pixel belongs to the mask when its luminance, relative to the image's brightest pixel,
-    /// is at least this (0–1; 0 keeps every non-black pixel).
+    /// A pixel belongs to the mask when its largest linear RGB channel is at least this fraction
+    /// of the largest channel value in the image (0–1; 0 keeps every non-black pixel). The
+    /// channel, not the luminance, so that saturated red or blue lights (low Y) count as bright.
     pub threshold: f64,
 }
 
@@ -477,6 +478,10 @@ impl Synthesizer {
             .into_par_iter()
             .map(|i| luminance_of(&to_xyz, px(i)))
             .reduce(|| 0.0, f64::max);
+        let c_max = (0..input.pixels())
+            .into_par_iter()
+            .map(|i| px(i).into_iter().fold(0.0, f64::max))
+            .reduce(|| 0.0, f64::max);
         if !(y_max > 0.0) || !y_max.is_finite() {
             return Err(Error::invalid(
                 input_name,
@@ -490,7 +495,7 @@ impl Synthesizer {
         let mut da = vec![0f32; n];
         let mut db = vec![0f32; n];
         let mut mask = vec![false; n];
-        let threshold = params.mask.threshold;
+        let channel_min = params.mask.threshold * c_max;
         let gamma = params.gamma;
         z.par_iter_mut()
             .zip(da.par_iter_mut())
@@ -498,10 +503,13 @@ impl Synthesizer {
             .zip(mask.par_iter_mut())
             .enumerate()
             .for_each(|(i, (((z, da), db), m))| {
-                let rgb = px(i).map(|v| v / y_max);
-                let xyz = mat3_mul_vec(&to_xyz, rgb);
+                let raw = px(i);
+                if raw.into_iter().fold(0.0, f64::max) < channel_min {
+                    return;
+                }
+                let xyz = mat3_mul_vec(&to_xyz, raw.map(|v| v / y_max));
                 let y = xyz[1];
-                if !(y > 0.0 && y >= threshold) {
+                if !(y > 0.0) {
                     return;
                 }
                 *m = true;

@@ -79,7 +79,8 @@ pub struct SynthArgs {
     /// Reference light chromaticity x,y (Table 1's start; §3.2 prints 0.43,0.40).
     #[arg(long, value_name = "X,Y")]
     pub reference_xy: Option<String>,
-    /// Mask rule: pixels with Y ≥ this × the image's largest Y make an afterimage (0–1).
+    /// Mask rule: pixels whose largest linear RGB channel is ≥ this × the image's largest
+    /// channel value make an afterimage (0–1; 0: every non-black pixel).
     #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
     pub mask_threshold: f64,
     /// Gaussian blur σ in px (default: 0.4 % of the image diagonal; 0 turns it off).
@@ -304,7 +305,7 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
     let (norm_s, mask_s) = (downscale(&norm, 480), downscale(&mask_img, 480));
     let mut tiles = vec![
         FigureTile { title: "input I_on (normalised)".into(), image: &norm_s },
-        FigureTile { title: format!("mask (Y ≥ {} Y_max)", params.mask.threshold), image: &mask_s },
+        FigureTile { title: format!("mask (max RGB ≥ {} of the peak)", params.mask.threshold), image: &mask_s },
     ];
     for (t, f) in &figure_frames {
         tiles.push(FigureTile { title: format!("t = {t} s"), image: f });
