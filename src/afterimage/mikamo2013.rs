@@ -676,31 +676,43 @@ pub fn gaussian_kernel(sigma_px: f64) -> Vec<f32> {
 }
 
 /// Separable Gaussian blur of an interleaved RGB buffer, edges clamped (replicated).
+///
+/// Each pass adds `w_k · shifted source` for k = 0, 1, … in turn, the same order of f32
+/// additions for every element (so the result does not depend on the thread count, and a numpy
+/// loop over the taps reproduces it bit for bit). Rows that are entirely 0 stay 0 and are skipped.
 pub fn blur_rgb(rgb: &mut [f32], width: usize, height: usize, kernel: &[f32]) {
     let r = kernel.len() / 2;
+    let row_len = 3 * width;
     let mut tmp = vec![0f32; rgb.len()];
-    // Horizontal pass: rgb → tmp.
-    tmp.par_chunks_mut(3 * width)
-        .zip(rgb.par_chunks(3 * width))
-        .for_each(|(dst, src)| {
-            for x in 0..width {
-                let mut acc = [0f32; 3];
-                for (k, w) in kernel.iter().enumerate() {
-                    let xx = (x + k).saturating_sub(r).min(width - 1);
-                    for c in 0..3 {
-                        acc[c] += w * src[3 * xx + c];
+    // Horizontal pass: rgb → tmp, through a row padded with its edge pixels.
+    tmp.par_chunks_mut(row_len)
+        .zip(rgb.par_chunks(row_len))
+        .for_each_init(
+            || vec![0f32; 3 * (width + 2 * r)],
+            |pad, (dst, src)| {
+                if src.iter().all(|&v| v == 0.0) {
+                    return;
+                }
+                for x in 0..r {
+                    pad[3 * x..3 * x + 3].copy_from_slice(&src[0..3]);
+                    let e = 3 * (width + r + x);
+                    pad[e..e + 3].copy_from_slice(&src[row_len - 3..row_len]);
+                }
+                pad[3 * r..3 * r + row_len].copy_from_slice(src);
+                for (k, &w) in kernel.iter().enumerate() {
+                    let shifted = &pad[3 * k..3 * k + row_len];
+                    for (d, s) in dst.iter_mut().zip(shifted) {
+                        *d += w * s;
                     }
                 }
-                dst[3 * x..3 * x + 3].copy_from_slice(&acc);
-            }
-        });
+            },
+        );
     // Vertical pass: tmp → rgb.
-    let row_len = 3 * width;
     rgb.par_chunks_mut(row_len)
         .enumerate()
         .for_each(|(y, dst)| {
             dst.iter_mut().for_each(|v| *v = 0.0);
-            for (k, w) in kernel.iter().enumerate() {
+            for (k, &w) in kernel.iter().enumerate() {
                 let yy = (y + k).saturating_sub(r).min(height - 1);
                 let src = &tmp[yy * row_len..(yy + 1) * row_len];
                 for (d, s) in dst.iter_mut().zip(src) {
@@ -734,6 +746,45 @@ mod tests {
         assert_eq!(p0.tau, 1.0);
         let p = curve_point(40.0).unwrap();
         assert!(p.tau < 0.5 && p.tau > 0.0);
+    }
+
+    #[test]
+    fn blur_equals_the_direct_clamped_sum_bit_for_bit() {
+        let (w, h) = (23, 9);
+        let mut rgb: Vec<f32> = (0..3 * w * h)
+            .map(|i| ((i * 7919) % 101) as f32 / 37.0)
+            .collect();
+        // One all-zero row exercises the skip.
+        rgb[3 * w * 4..3 * w * 5].iter_mut().for_each(|v| *v = 0.0);
+        let k = gaussian_kernel(1.7);
+        let r = k.len() / 2;
+        let clamp = |i: isize, n: usize| i.clamp(0, n as isize - 1) as usize;
+        let mut tmp = vec![0f32; rgb.len()];
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..3 {
+                    let mut acc = 0f32;
+                    for (j, wk) in k.iter().enumerate() {
+                        let xx = clamp(x as isize + j as isize - r as isize, w);
+                        acc += wk * rgb[3 * (y * w + xx) + c];
+                    }
+                    tmp[3 * (y * w + x) + c] = acc;
+                }
+            }
+        }
+        let mut want = vec![0f32; rgb.len()];
+        for y in 0..h {
+            for x in 0..3 * w {
+                let mut acc = 0f32;
+                for (j, wk) in k.iter().enumerate() {
+                    let yy = clamp(y as isize + j as isize - r as isize, h);
+                    acc += wk * tmp[yy * 3 * w + x];
+                }
+                want[y * 3 * w + x] = acc;
+            }
+        }
+        blur_rgb(&mut rgb, w, h, &k);
+        assert_eq!(rgb, want);
     }
 
     #[test]
