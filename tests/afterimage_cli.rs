@@ -2,6 +2,10 @@
 //! (16-bit PNG, EXR, APNG), the preset section read back through the schema, and bad input
 //! refused with exit 2 and nothing written.
 
+// Channel loops index RGB triplets as the equations do; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 mod common;
 
 use common::{assert_rejected, lumifit, p, stderr, write};
@@ -51,7 +55,10 @@ fn curves_csv_keeps_the_contract_and_the_table_values() {
     let pts = parse_curves_csv(text.as_bytes(), &csv).unwrap();
     assert_eq!(pts.len(), 801);
     for (t, xy) in TABLE1_T_S.iter().zip(TABLE1_XY) {
-        let q = pts.iter().find(|q| q.t_s == *t).expect("Table 1 time on the grid");
+        let q = pts
+            .iter()
+            .find(|q| q.t_s == *t)
+            .expect("Table 1 time on the grid");
         assert_eq!([q.x, q.y], xy);
         assert!((q.big_y - luminance_y(*t)).abs() <= 1e-12 * luminance_y(*t));
     }
@@ -61,7 +68,14 @@ fn curves_csv_keeps_the_contract_and_the_table_values() {
     let distinct: std::collections::HashSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
     assert!(distinct.len() > 50, "{} colours", distinct.len());
     // Over 80 s needs --extrapolate.
-    let o = lumifit(&["afterimage", "curves", "--end-s", "90", "--out", &p(dir.path(), "x.csv")]);
+    let o = lumifit(&[
+        "afterimage",
+        "curves",
+        "--end-s",
+        "90",
+        "--out",
+        &p(dir.path(), "x.csv"),
+    ]);
     assert_rejected(&o, &["--extrapolate"]);
     assert!(!dir.path().join("x.csv").exists());
 }
@@ -91,7 +105,10 @@ fn synth_writes_frames_preview_curves_preset_and_figure() {
         let name = format!("frame_t{t:07.3}");
         let bytes = std::fs::read(out.join(format!("{name}.png"))).unwrap();
         let img = image::load_from_memory(&bytes).unwrap();
-        assert!(matches!(img, image::DynamicImage::ImageRgb16(_)), "{name} is not 16-bit RGB");
+        assert!(
+            matches!(img, image::DynamicImage::ImageRgb16(_)),
+            "{name} is not 16-bit RGB"
+        );
         assert_eq!((img.width(), img.height()), (96, 64));
         // The EXR holds the linear frame; its sRGB encoding is the PNG, code for code.
         let exr = std::fs::read(out.join(format!("{name}.exr"))).unwrap();
@@ -103,8 +120,12 @@ fn synth_writes_frames_preview_curves_preset_and_figure() {
         assert_eq!(img.to_rgb16().get_pixel(2, 2).0, [0, 0, 0]);
     }
     // At t = 0 the reference square's centre is lit, by 80 s it has faded.
-    let f0 = image::open(out.join("frame_t000.000.png")).unwrap().to_rgb16();
-    let f80 = image::open(out.join("frame_t080.000.png")).unwrap().to_rgb16();
+    let f0 = image::open(out.join("frame_t000.000.png"))
+        .unwrap()
+        .to_rgb16();
+    let f80 = image::open(out.join("frame_t080.000.png"))
+        .unwrap()
+        .to_rgb16();
     assert!(f0.get_pixel(28, 32).0[1] > 20_000);
     assert!(f80.get_pixel(28, 32).0[1] < f0.get_pixel(28, 32).0[1] / 4);
     // The green square is below the default mask threshold relative to Y_max? Its Y is 0.7 ≥ 0.5:
@@ -112,15 +133,21 @@ fn synth_writes_frames_preview_curves_preset_and_figure() {
     assert!(f0.get_pixel(70, 32).0[1] > 10_000);
 
     let apng = std::fs::read(out.join("preview.apng")).unwrap();
-    let reader = png::Decoder::new(std::io::Cursor::new(apng)).read_info().unwrap();
+    let reader = png::Decoder::new(std::io::Cursor::new(apng))
+        .read_info()
+        .unwrap();
     assert_eq!(reader.info().animation_control().unwrap().num_frames, 5);
 
     let curves = std::fs::read(out.join("curves.csv")).unwrap();
     let pts = parse_curves_csv(&curves, "curves.csv").unwrap();
-    assert_eq!(pts.iter().map(|q| q.t_s).collect::<Vec<_>>(), vec![0.0, 20.0, 40.0, 60.0, 80.0]);
+    assert_eq!(
+        pts.iter().map(|q| q.t_s).collect::<Vec<_>>(),
+        vec![0.0, 20.0, 40.0, 60.0, 80.0]
+    );
 
     let preset: MaterialPreset = read_material(&out.join("afterimage.preset.json")).unwrap();
-    let section = AfterimageSection::from_section(preset.afterimage.as_ref().unwrap(), "preset").unwrap();
+    let section =
+        AfterimageSection::from_section(preset.afterimage.as_ref().unwrap(), "preset").unwrap();
     assert_eq!(section.gamma, 0.7);
     assert_eq!(section.k, 0.05);
     assert_eq!(section.blur_sigma_px, 1.5);
@@ -135,25 +162,45 @@ fn synth_writes_frames_preview_curves_preset_and_figure() {
 #[test]
 fn an_ldr_png_and_a_background_dark_adapt() {
     let dir = tempfile::tempdir().unwrap();
-    let input = write(dir.path(), "on.png", encode_png16_srgb(&stimulus()).unwrap());
+    let input = write(
+        dir.path(),
+        "on.png",
+        encode_png16_srgb(&stimulus()).unwrap(),
+    );
     let bg = LinearImage::new("bg", 96, 64, vec![0.4f32; 3 * 96 * 64]).unwrap();
     let bg_path = write(dir.path(), "off.png", encode_png16_srgb(&bg).unwrap());
     let out = dir.path().join("o");
     let o = lumifit(&[
-        "afterimage", "synth", input.to_str().unwrap(), "--background", bg_path.to_str().unwrap(),
-        "--times", "0,40", "--dark-constant", "0.1", "--dark-time-s", "10", "--out",
+        "afterimage",
+        "synth",
+        input.to_str().unwrap(),
+        "--background",
+        bg_path.to_str().unwrap(),
+        "--times",
+        "0,40",
+        "--dark-constant",
+        "0.1",
+        "--dark-time-s",
+        "10",
+        "--out",
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(summary["input_encoding"], "Srgb(16)");
     let corner = |t: &str| {
-        let img = image::open(out.join(format!("frame_t{t}.png"))).unwrap().to_rgb16();
+        let img = image::open(out.join(format!("frame_t{t}.png")))
+            .unwrap()
+            .to_rgb16();
         let code = img.get_pixel(1, 1).0[0];
         lumifit::colorimetry::rgb::eotf_srgb(f64::from(code) / 65535.0)
     };
     // Background only: 0.4·w(t), w(0) = 0.1, w(40) = 1 − 0.9 e^−4.
-    assert!((corner("000.000") - 0.04).abs() < 2e-4, "{}", corner("000.000"));
+    assert!(
+        (corner("000.000") - 0.04).abs() < 2e-4,
+        "{}",
+        corner("000.000")
+    );
     let w40 = 1.0 - 0.9 * (-4.0f64).exp();
     assert!((corner("040.000") - 0.4 * w40).abs() < 2e-4);
     let preset = read_material(&out.join("afterimage.preset.json")).unwrap();
@@ -176,15 +223,33 @@ fn bad_input_is_exit_2_with_the_file_or_flag_and_nothing_written() {
     let o_s = out.to_str().unwrap();
     let g = good.to_str().unwrap();
     let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
-        (vec![black.to_str().unwrap(), "--times", "0"], vec!["black.exr", "L_on^max"]),
-        (vec![junk.to_str().unwrap(), "--times", "0"], vec!["junk.png", "not a readable image"]),
-        (vec![g, "--times", "0:90:10"], vec!["--times", "--extrapolate"]),
+        (
+            vec![black.to_str().unwrap(), "--times", "0"],
+            vec!["black.exr", "L_on^max"],
+        ),
+        (
+            vec![junk.to_str().unwrap(), "--times", "0"],
+            vec!["junk.png", "not a readable image"],
+        ),
+        (
+            vec![g, "--times", "0:90:10"],
+            vec!["--times", "--extrapolate"],
+        ),
         (vec![g, "--times", "0", "--gamma", "-1"], vec!["--gamma"]),
         (vec![g, "--times", "0", "--k", "-0.5"], vec!["--k"]),
-        (vec![g, "--times", "0", "--mask-threshold", "2"], vec!["--mask-threshold"]),
-        (vec![g, "--times", "0", "--dark-constant", "0.1"], vec!["--background"]),
+        (
+            vec![g, "--times", "0", "--mask-threshold", "2"],
+            vec!["--mask-threshold"],
+        ),
+        (
+            vec![g, "--times", "0", "--dark-constant", "0.1"],
+            vec!["--background"],
+        ),
         (vec![g, "--times", "a,b"], vec!["--times"]),
-        (vec![g, "--times", "0", "--background", black.to_str().unwrap()], vec!["--background"]),
+        (
+            vec![g, "--times", "0", "--background", black.to_str().unwrap()],
+            vec!["--background"],
+        ),
     ];
     for (args, fragments) in cases {
         let mut full = vec!["afterimage", "synth"];
@@ -195,7 +260,16 @@ fn bad_input_is_exit_2_with_the_file_or_flag_and_nothing_written() {
         assert!(!out.exists(), "{args:?} wrote {}", out.display());
     }
     // Extrapolation is allowed when asked for.
-    let o = lumifit(&["afterimage", "synth", g, "--times", "0,100", "--extrapolate", "--out", o_s]);
+    let o = lumifit(&[
+        "afterimage",
+        "synth",
+        g,
+        "--times",
+        "0,100",
+        "--extrapolate",
+        "--out",
+        o_s,
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("frame_t100.000.png").exists());
 }

@@ -47,6 +47,10 @@
 //! [`crate::colorimetry`] (`colour.xyY_to_XYZ`, `colour.XYZ_to_Lab`, `colour.Lab_to_XYZ`,
 //! `colour.XYZ_to_sRGB` with D65 and no adaptation).
 
+// Channel loops index RGB triplets as the equations do; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use rayon::prelude::*;
 
 use crate::colorimetry::lab::{
@@ -471,9 +475,8 @@ impl Synthesizer {
                 ));
             }
         }
-        let px = |i: usize| -> [f64; 3] {
-            [0, 1, 2].map(|c| f64::from(input.rgb[3 * i + c]).max(0.0))
-        };
+        let px =
+            |i: usize| -> [f64; 3] { [0, 1, 2].map(|c| f64::from(input.rgb[3 * i + c]).max(0.0)) };
         let y_max = (0..input.pixels())
             .into_par_iter()
             .map(|i| luminance_of(&to_xyz, px(i)))

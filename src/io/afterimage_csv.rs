@@ -34,7 +34,10 @@ pub fn parse_curves_csv(bytes: &[u8], source: &str) -> Result<Vec<CurvePoint>> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
     let header = CURVES_COLUMNS.join(",");
     match rows.next() {
-        Some((_, h)) if h.split(',').map(str::trim).eq(CURVES_COLUMNS.iter().copied()) => {}
+        Some((_, h))
+            if h.split(',')
+                .map(str::trim)
+                .eq(CURVES_COLUMNS.iter().copied()) => {}
         Some((n, h)) => {
             return Err(Error::parse(
                 source,
@@ -42,7 +45,13 @@ pub fn parse_curves_csv(bytes: &[u8], source: &str) -> Result<Vec<CurvePoint>> {
                 format!("header '{h}'; expected '{header}'"),
             ))
         }
-        None => return Err(Error::parse(source, 0, format!("empty; expected the header '{header}' and rows"))),
+        None => {
+            return Err(Error::parse(
+                source,
+                0,
+                format!("empty; expected the header '{header}' and rows"),
+            ))
+        }
     }
     let mut out = Vec::new();
     for (n, line) in rows {
@@ -56,13 +65,20 @@ pub fn parse_curves_csv(bytes: &[u8], source: &str) -> Result<Vec<CurvePoint>> {
         }
         let mut x = [0.0; 8];
         for (k, f) in v.iter().enumerate() {
-            x[k] = f.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                Error::parse(
-                    source,
-                    n,
-                    format!("column '{}': '{f}' is not a finite number", CURVES_COLUMNS[k]),
-                )
-            })?;
+            x[k] = f
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    Error::parse(
+                        source,
+                        n,
+                        format!(
+                            "column '{}': '{f}' is not a finite number",
+                            CURVES_COLUMNS[k]
+                        ),
+                    )
+                })?;
         }
         out.push(CurvePoint {
             t_s: x[0],
@@ -82,11 +98,16 @@ mod tests {
 
     #[test]
     fn curves_round_trip_and_a_bad_row_names_its_line() {
-        let pts = crate::afterimage::curves(&[0.0, 6.0, 80.0], crate::afterimage::TimeRange::Measured).unwrap();
+        let pts =
+            crate::afterimage::curves(&[0.0, 6.0, 80.0], crate::afterimage::TimeRange::Measured)
+                .unwrap();
         let back = parse_curves_csv(curves_to_csv(&pts).as_bytes(), "c.csv").unwrap();
         assert_eq!(back, pts);
         let e = parse_curves_csv(b"t_s,Y,x,y,L,a,b,tau\n0,1,2,3,4,5,6,x\n", "c.csv").unwrap_err();
-        assert!(e.to_string().contains("c.csv: line 2") && e.to_string().contains("tau"), "{e}");
+        assert!(
+            e.to_string().contains("c.csv: line 2") && e.to_string().contains("tau"),
+            "{e}"
+        );
         assert!(parse_curves_csv(b"t_s,y,x,Y,L,a,b,tau\n", "c.csv").is_err());
     }
 }
