@@ -247,6 +247,10 @@ fn bad_input_is_exit_2_with_the_file_or_flag_and_nothing_written() {
         ),
         (vec![g, "--times", "a,b"], vec!["--times"]),
         (
+            vec![g, "--times", "4,8,4"],
+            vec!["--times", "frame_t004.000.png"],
+        ),
+        (
             vec![g, "--times", "0", "--background", black.to_str().unwrap()],
             vec!["--background"],
         ),

@@ -219,6 +219,12 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
     };
     params.validate()?;
     lumifit::afterimage::check_times("--times", &times, params.range)?;
+    let mut names = std::collections::HashMap::new();
+    for &t in &times {
+        if let Some(prev) = names.insert(frame_name(t, "png"), t) {
+            bail!("--times: {prev} s and {t} s would both be written as {}; expected distinct times at least 1 ms apart", frame_name(t, "png"));
+        }
+    }
 
     let t_read = Instant::now();
     let image_bytes = lumifit::io::read_input(&a.image)?.0;
