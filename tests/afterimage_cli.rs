@@ -277,3 +277,79 @@ fn bad_input_is_exit_2_with_the_file_or_flag_and_nothing_written() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("frame_t100.000.png").exists());
 }
+
+/// CRC-32 (IEEE) for hand-made PNG chunks.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xFFFF_FFFFu32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+#[test]
+fn an_absurd_image_size_is_refused_from_the_header_and_an_input_is_never_overwritten() {
+    let dir = tempfile::tempdir().unwrap();
+    // A PNG whose header claims 100000 × 100000 px (≈ 900 GiB of planes): refused before decoding.
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(100_000u32.to_be_bytes());
+    ihdr.extend(100_000u32.to_be_bytes());
+    ihdr.extend([16, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc32(&ihdr).to_be_bytes());
+    // A short IDAT (the header reader stops at the first image data) and IEND.
+    for (tag, body) in [
+        (&b"IDAT"[..], &[0x78u8, 0x9c, 0x03, 0x00][..]),
+        (&b"IEND"[..], &[][..]),
+    ] {
+        let mut chunk = tag.to_vec();
+        chunk.extend(body);
+        png.extend((body.len() as u32).to_be_bytes());
+        png.extend(&chunk);
+        png.extend(crc32(&chunk).to_be_bytes());
+    }
+    let huge = write(dir.path(), "huge.png", png);
+    let out = dir.path().join("o");
+    let o = lumifit(&[
+        "afterimage",
+        "synth",
+        huge.to_str().unwrap(),
+        "--times",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_rejected(&o, &["huge.png", "100000×100000", "MiB"]);
+    assert!(!out.exists());
+
+    // The input sits in the output directory under a frame's name: refused, left byte-identical.
+    let out = dir.path().join("frames");
+    std::fs::create_dir(&out).unwrap();
+    let bytes = encode_png16_srgb(&stimulus()).unwrap();
+    let input = write(&out, "frame_t000.000.png", &bytes);
+    let o = lumifit(&[
+        "afterimage",
+        "synth",
+        input.to_str().unwrap(),
+        "--times",
+        "0,4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_rejected(&o, &["is the input"]);
+    assert_eq!(std::fs::read(&input).unwrap(), bytes);
+    assert_eq!(
+        std::fs::read_dir(&out).unwrap().count(),
+        1,
+        "nothing else written"
+    );
+}
