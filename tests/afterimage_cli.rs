@@ -353,3 +353,41 @@ fn an_absurd_image_size_is_refused_from_the_header_and_an_input_is_never_overwri
         "nothing else written"
     );
 }
+
+#[test]
+fn fps_and_duration_give_frames_at_i_over_f() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "on.exr", encode_exr(&stimulus()).unwrap());
+    let out = dir.path().join("o");
+    let o = lumifit(&[
+        "afterimage",
+        "synth",
+        input.to_str().unwrap(),
+        "--fps",
+        "2",
+        "--duration",
+        "2",
+        "--blur-sigma-px",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for t in ["000.000", "000.500", "001.000", "001.500", "002.000"] {
+        assert!(out.join(format!("frame_t{t}.png")).exists(), "{t}");
+    }
+    let pts = parse_curves_csv(&std::fs::read(out.join("curves.csv")).unwrap(), "c").unwrap();
+    assert_eq!(pts.len(), 5);
+    let o = lumifit(&[
+        "afterimage",
+        "synth",
+        input.to_str().unwrap(),
+        "--fps",
+        "0",
+        "--duration",
+        "2",
+        "--out",
+        p(dir.path(), "o2").as_str(),
+    ]);
+    assert_rejected(&o, &["--fps"]);
+}
