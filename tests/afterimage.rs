@@ -3,8 +3,13 @@
 //! Y_M(t)/Y_M(0), Weve's convergence, Reidenbach's early colour, scale invariance, mask, dark
 //! adaptation, bad input).
 
+// Channel loops index RGB triplets as the equations do; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use lumifit::afterimage::mikamo2013::{
-    display_matrices, gamut_correct, lab_to_display_rgb, rgb_to_xyy, REFERENCE_XY_TABLE1, TABLE1_T_S, TABLE1_XY,
+    display_matrices, gamut_correct, lab_to_display_rgb, rgb_to_xyy, REFERENCE_XY_TABLE1,
+    TABLE1_T_S, TABLE1_XY,
 };
 use lumifit::afterimage::{
     curve_point, curves, luminance_y, time_grid, DarkAdaptation, LinearImage, MaskRule,
@@ -129,7 +134,11 @@ fn a_reference_patch_follows_the_table_1_track_and_y_m_at_its_centre() {
     };
     let syn = Synthesizer::new(&img, "patches", None, params).unwrap();
     let y0 = rgb_to_xyy(pixel(&syn.frame(0.0).unwrap(), 80, 60)).unwrap()[2];
-    assert!((y0 - luminance_y(0.0)).abs() < F32_TOL, "Y(0) = {y0} vs {}", luminance_y(0.0));
+    assert!(
+        (y0 - luminance_y(0.0)).abs() < F32_TOL,
+        "Y(0) = {y0} vs {}",
+        luminance_y(0.0)
+    );
     let (mut inside, mut outside) = (0, 0);
     for (t, xy) in TABLE1_T_S.iter().zip(TABLE1_XY) {
         let c = pixel(&syn.frame(*t).unwrap(), 80, 60);
@@ -152,12 +161,23 @@ fn a_reference_patch_follows_the_table_1_track_and_y_m_at_its_centre() {
         } else {
             outside += 1;
             let min = c.iter().cloned().fold(f64::INFINITY, f64::min);
-            assert!(min.abs() < 1e-7, "t = {t}: corrected colour {c:?} keeps no channel at 0");
-            assert!(c.iter().all(|&v| v >= 0.0), "t = {t}: negative channel {c:?}");
+            assert!(
+                min.abs() < 1e-7,
+                "t = {t}: corrected colour {c:?} keeps no channel at 0"
+            );
+            assert!(
+                c.iter().all(|&v| v >= 0.0),
+                "t = {t}: negative channel {c:?}"
+            );
         }
     }
-    println!("Table 1 points inside the sRGB gamut: {inside}, outside (gamut-corrected): {outside}");
-    assert!(inside >= 5 && outside >= 5, "{inside} inside, {outside} outside");
+    println!(
+        "Table 1 points inside the sRGB gamut: {inside}, outside (gamut-corrected): {outside}"
+    );
+    assert!(
+        inside >= 5 && outside >= 5,
+        "{inside} inside, {outside} outside"
+    );
 }
 
 #[test]
@@ -170,8 +190,16 @@ fn gamut_correction_clamps_negatives_and_restores_the_luminance() {
         &space.matrix_xyz_to_rgb,
         lumifit::colorimetry::lab::lab_to_xyz(lab, D65_XY).unwrap(),
     );
-    assert!(raw.iter().any(|&v| v < 0.0), "test colour must be out of gamut");
-    let c = gamut_correct(lab, white, &space.matrix_xyz_to_rgb, &space.matrix_rgb_to_xyz);
+    assert!(
+        raw.iter().any(|&v| v < 0.0),
+        "test colour must be out of gamut"
+    );
+    let c = gamut_correct(
+        lab,
+        white,
+        &space.matrix_xyz_to_rgb,
+        &space.matrix_rgb_to_xyz,
+    );
     assert!(c.iter().all(|&v| v >= 0.0));
     let l = xyz_to_lab(mat3_mul_vec(&space.matrix_rgb_to_xyz, c), D65_XY).unwrap()[0];
     assert!((l - 40.0).abs() < 1e-9, "L* {l}");
@@ -211,7 +239,10 @@ fn trajectories_from_different_colours_converge_as_tau_falls() {
     let d0 = ds[0].1;
     assert!(d0 > 0.02, "the stimuli must start apart: {d0}");
     for &(t, dt) in &ds[1..] {
-        assert!(dt < d0, "t = {t}: distance {dt} not below the t = 0 distance {d0}");
+        assert!(
+            dt < d0,
+            "t = {t}: distance {dt} not below the t = 0 distance {d0}"
+        );
     }
     assert!(ds[7].1 < 0.5 * d0, "no convergence by 80 s: {ds:?}");
 }
@@ -234,7 +265,10 @@ fn larger_k_starts_closer_to_the_stimulus_colour() {
         let xyy = rgb_to_xyy(pixel(&syn.frame(0.0).unwrap(), 50, 50)).unwrap();
         let d = xy_dist(xyy, stim);
         seen.push((k, d));
-        assert!(d < last, "k = {k}: distance {d} not below {last} ({seen:?})");
+        assert!(
+            d < last,
+            "k = {k}: distance {d} not below {last} ({seen:?})"
+        );
         last = d;
     }
     println!("xy distance to the stimulus at t = 0 by k: {seen:?}");
@@ -274,10 +308,15 @@ fn scaling_an_hdr_input_does_not_change_the_frames() {
                 .rgb
                 .iter()
                 .zip(&b.rgb)
-                .map(|(p, q)| (i32::from(linear_to_srgb16(*p)) - i32::from(linear_to_srgb16(*q))).abs())
+                .map(|(p, q)| {
+                    (i32::from(linear_to_srgb16(*p)) - i32::from(linear_to_srgb16(*q))).abs()
+                })
                 .max()
                 .unwrap();
-            assert!(max_code <= 1, "scale {s}, t = {t}: 16-bit codes differ by {max_code}");
+            assert!(
+                max_code <= 1,
+                "scale {s}, t = {t}: 16-bit codes differ by {max_code}"
+            );
         }
     }
 }
@@ -338,12 +377,33 @@ fn the_background_dark_adapts_by_eq_7() {
 fn bad_parameters_and_black_images_are_refused_by_name() {
     let black = LinearImage::new("black.png", 10, 10, vec![0.0; 300]).unwrap();
     let e = Synthesizer::new(&black, "black.png", None, SynthParams::default()).unwrap_err();
-    assert!(e.to_string().contains("black.png") && e.to_string().contains("L_on^max"), "{e}");
+    assert!(
+        e.to_string().contains("black.png") && e.to_string().contains("L_on^max"),
+        "{e}"
+    );
     let img = patches(10, 10, &[(5, 5, 2, [1.0, 1.0, 1.0])]);
     for (flag, p) in [
-        ("--gamma", SynthParams { gamma: -0.1, ..SynthParams::default() }),
-        ("--k", SynthParams { k: -1.0, ..SynthParams::default() }),
-        ("--mask-threshold", SynthParams { mask: MaskRule { threshold: 1.5 }, ..SynthParams::default() }),
+        (
+            "--gamma",
+            SynthParams {
+                gamma: -0.1,
+                ..SynthParams::default()
+            },
+        ),
+        (
+            "--k",
+            SynthParams {
+                k: -1.0,
+                ..SynthParams::default()
+            },
+        ),
+        (
+            "--mask-threshold",
+            SynthParams {
+                mask: MaskRule { threshold: 1.5 },
+                ..SynthParams::default()
+            },
+        ),
     ] {
         let e = Synthesizer::new(&img, "img", None, p).unwrap_err();
         assert!(e.to_string().contains(flag), "{flag}: {e}");

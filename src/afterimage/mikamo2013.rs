@@ -25,7 +25,7 @@
 //!
 //! ```text
 //! XYZ_on = M_RGB→XYZ · max(RGB, 0) / Y_on^max           (normalisation: brightest pixel Y = 1)
-//! mask:   Y_on ≥ θ and Y_on > 0                           (θ = mask threshold, relative)
+//! mask:   max(R, G, B) ≥ θ · max over the image of max(R, G, B), and Y_on > 0
 //! I′_on = I_on inside the mask, 0 outside
 //! I^R_on = xyY(x_R, y_R, Y′_on)                            (§3.2: reference chromaticity)
 //! Δa = a′_on − a^R_on,  Δb = b′_on − b^R_on               (Eq. 1–2; Lab with white D65, Yn = 1)
@@ -46,6 +46,10 @@
 //! No colour-science counterpart exists; the colour conversions are those of
 //! [`crate::colorimetry`] (`colour.xyY_to_XYZ`, `colour.XYZ_to_Lab`, `colour.Lab_to_XYZ`,
 //! `colour.XYZ_to_sRGB` with D65 and no adaptation).
+
+// Channel loops index RGB triplets as the equations do; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use rayon::prelude::*;
 
@@ -265,8 +269,9 @@ pub fn time_grid(step_s: f64, end_s: f64) -> Result<Vec<f64>> {
 /// How the mask I′_on is made (§3.2 leaves it open).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MaskRule {
-    /// A pixel belongs to the mask when its luminance, relative to the image's brightest pixel,
-    /// is at least this (0–1; 0 keeps every non-black pixel).
+    /// A pixel belongs to the mask when its largest linear RGB channel is at least this fraction
+    /// of the largest channel value in the image (0–1; 0 keeps every non-black pixel). The
+    /// channel, not the luminance, so that saturated red or blue lights (low Y) count as bright.
     pub threshold: f64,
 }
 
@@ -470,12 +475,15 @@ impl Synthesizer {
                 ));
             }
         }
-        let px = |i: usize| -> [f64; 3] {
-            [0, 1, 2].map(|c| f64::from(input.rgb[3 * i + c]).max(0.0))
-        };
+        let px =
+            |i: usize| -> [f64; 3] { [0, 1, 2].map(|c| f64::from(input.rgb[3 * i + c]).max(0.0)) };
         let y_max = (0..input.pixels())
             .into_par_iter()
             .map(|i| luminance_of(&to_xyz, px(i)))
+            .reduce(|| 0.0, f64::max);
+        let c_max = (0..input.pixels())
+            .into_par_iter()
+            .map(|i| px(i).into_iter().fold(0.0, f64::max))
             .reduce(|| 0.0, f64::max);
         if !(y_max > 0.0) || !y_max.is_finite() {
             return Err(Error::invalid(
@@ -490,7 +498,7 @@ impl Synthesizer {
         let mut da = vec![0f32; n];
         let mut db = vec![0f32; n];
         let mut mask = vec![false; n];
-        let threshold = params.mask.threshold;
+        let channel_min = params.mask.threshold * c_max;
         let gamma = params.gamma;
         z.par_iter_mut()
             .zip(da.par_iter_mut())
@@ -498,10 +506,13 @@ impl Synthesizer {
             .zip(mask.par_iter_mut())
             .enumerate()
             .for_each(|(i, (((z, da), db), m))| {
-                let rgb = px(i).map(|v| v / y_max);
-                let xyz = mat3_mul_vec(&to_xyz, rgb);
+                let raw = px(i);
+                if raw.into_iter().fold(0.0, f64::max) < channel_min {
+                    return;
+                }
+                let xyz = mat3_mul_vec(&to_xyz, raw.map(|v| v / y_max));
                 let y = xyz[1];
-                if !(y > 0.0 && y >= threshold) {
+                if !(y > 0.0) {
                     return;
                 }
                 *m = true;
@@ -668,31 +679,43 @@ pub fn gaussian_kernel(sigma_px: f64) -> Vec<f32> {
 }
 
 /// Separable Gaussian blur of an interleaved RGB buffer, edges clamped (replicated).
+///
+/// Each pass adds `w_k · shifted source` for k = 0, 1, … in turn, the same order of f32
+/// additions for every element (so the result does not depend on the thread count, and a numpy
+/// loop over the taps reproduces it bit for bit). Rows that are entirely 0 stay 0 and are skipped.
 pub fn blur_rgb(rgb: &mut [f32], width: usize, height: usize, kernel: &[f32]) {
     let r = kernel.len() / 2;
+    let row_len = 3 * width;
     let mut tmp = vec![0f32; rgb.len()];
-    // Horizontal pass: rgb → tmp.
-    tmp.par_chunks_mut(3 * width)
-        .zip(rgb.par_chunks(3 * width))
-        .for_each(|(dst, src)| {
-            for x in 0..width {
-                let mut acc = [0f32; 3];
-                for (k, w) in kernel.iter().enumerate() {
-                    let xx = (x + k).saturating_sub(r).min(width - 1);
-                    for c in 0..3 {
-                        acc[c] += w * src[3 * xx + c];
+    // Horizontal pass: rgb → tmp, through a row padded with its edge pixels.
+    tmp.par_chunks_mut(row_len)
+        .zip(rgb.par_chunks(row_len))
+        .for_each_init(
+            || vec![0f32; 3 * (width + 2 * r)],
+            |pad, (dst, src)| {
+                if src.iter().all(|&v| v == 0.0) {
+                    return;
+                }
+                for x in 0..r {
+                    pad[3 * x..3 * x + 3].copy_from_slice(&src[0..3]);
+                    let e = 3 * (width + r + x);
+                    pad[e..e + 3].copy_from_slice(&src[row_len - 3..row_len]);
+                }
+                pad[3 * r..3 * r + row_len].copy_from_slice(src);
+                for (k, &w) in kernel.iter().enumerate() {
+                    let shifted = &pad[3 * k..3 * k + row_len];
+                    for (d, s) in dst.iter_mut().zip(shifted) {
+                        *d += w * s;
                     }
                 }
-                dst[3 * x..3 * x + 3].copy_from_slice(&acc);
-            }
-        });
+            },
+        );
     // Vertical pass: tmp → rgb.
-    let row_len = 3 * width;
     rgb.par_chunks_mut(row_len)
         .enumerate()
         .for_each(|(y, dst)| {
             dst.iter_mut().for_each(|v| *v = 0.0);
-            for (k, w) in kernel.iter().enumerate() {
+            for (k, &w) in kernel.iter().enumerate() {
                 let yy = (y + k).saturating_sub(r).min(height - 1);
                 let src = &tmp[yy * row_len..(yy + 1) * row_len];
                 for (d, s) in dst.iter_mut().zip(src) {
@@ -726,6 +749,45 @@ mod tests {
         assert_eq!(p0.tau, 1.0);
         let p = curve_point(40.0).unwrap();
         assert!(p.tau < 0.5 && p.tau > 0.0);
+    }
+
+    #[test]
+    fn blur_equals_the_direct_clamped_sum_bit_for_bit() {
+        let (w, h) = (23, 9);
+        let mut rgb: Vec<f32> = (0..3 * w * h)
+            .map(|i| ((i * 7919) % 101) as f32 / 37.0)
+            .collect();
+        // One all-zero row exercises the skip.
+        rgb[3 * w * 4..3 * w * 5].iter_mut().for_each(|v| *v = 0.0);
+        let k = gaussian_kernel(1.7);
+        let r = k.len() / 2;
+        let clamp = |i: isize, n: usize| i.clamp(0, n as isize - 1) as usize;
+        let mut tmp = vec![0f32; rgb.len()];
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..3 {
+                    let mut acc = 0f32;
+                    for (j, wk) in k.iter().enumerate() {
+                        let xx = clamp(x as isize + j as isize - r as isize, w);
+                        acc += wk * rgb[3 * (y * w + xx) + c];
+                    }
+                    tmp[3 * (y * w + x) + c] = acc;
+                }
+            }
+        }
+        let mut want = vec![0f32; rgb.len()];
+        for y in 0..h {
+            for x in 0..3 * w {
+                let mut acc = 0f32;
+                for (j, wk) in k.iter().enumerate() {
+                    let yy = clamp(y as isize + j as isize - r as isize, h);
+                    acc += wk * tmp[yy * 3 * w + x];
+                }
+                want[y * 3 * w + x] = acc;
+            }
+        }
+        blur_rgb(&mut rgb, w, h, &k);
+        assert_eq!(rgb, want);
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! Afterimages: the luminance and colour transitions of positive afterimages and frames that
 //! show them over an image (Mikamo et al. 2013). Pure maths; images come in and go out through
-//! [`crate::io`].
+//! the `io` layer (`io::hdr_image`).
 //!
 //! - [`mikamo2013`]: Eq. 3 and Table 1 (curves), Eq. 1–2 and 4–6 (frames), §3.7 gamut
 //!   correction, §3.8 blur, Eq. 7 dark adaptation.

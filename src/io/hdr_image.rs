@@ -19,6 +19,10 @@
 //! filter. [`encode_exr`] writes linear 32-bit float RGB. [`encode_apng`] writes an 8-bit
 //! animated PNG (APNG) from frames made with [`preview_rgb8`].
 
+// Channel loops index RGB triplets as the equations do; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use std::path::Path;
 
 use image::{DynamicImage, ImageEncoder};
@@ -244,9 +248,7 @@ pub fn downscale(img: &LinearImage, max_side_px: usize) -> LinearImage {
 pub fn preview_rgb8(img: &LinearImage) -> Vec<u8> {
     img.rgb
         .iter()
-        .map(|&v| {
-            (eotf_inverse_srgb(f64::from(v).clamp(0.0, 1.0)) * 255.0 + 0.5).floor() as u8
-        })
+        .map(|&v| (eotf_inverse_srgb(f64::from(v).clamp(0.0, 1.0)) * 255.0 + 0.5).floor() as u8)
         .collect()
 }
 
@@ -331,6 +333,41 @@ mod tests {
         let dec = png::Decoder::new(std::io::Cursor::new(apng));
         let reader = dec.read_info().unwrap();
         assert_eq!(reader.info().animation_control().unwrap().num_frames, 2);
+    }
+
+    #[test]
+    fn radiance_hdr_is_read_as_linear_at_its_scale() {
+        let px: Vec<f32> = (0..3 * 4 * 3).map(|i| 0.5 + 100.0 * i as f32).collect();
+        let img = image::Rgb32FImage::from_raw(4, 3, px.clone()).unwrap();
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        DynamicImage::ImageRgb32F(img)
+            .write_to(&mut bytes, image::ImageFormat::Hdr)
+            .unwrap();
+        let (back, enc) = decode_display_image(bytes.get_ref(), Path::new("x.hdr"), 64).unwrap();
+        assert_eq!(enc, InputEncoding::LinearFloat);
+        // RGBE keeps 8 mantissa bits per channel on the exponent of the pixel's largest channel:
+        // each channel is within max/128 of the original.
+        for (p, q) in px.chunks(3).zip(back.rgb.chunks(3)) {
+            let m = p.iter().cloned().fold(0.0, f32::max);
+            for (a, b) in p.iter().zip(q) {
+                assert!((a - b).abs() <= m / 128.0, "{p:?} vs {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn jpeg_is_decoded_from_srgb() {
+        let img = image::RgbImage::from_pixel(16, 16, image::Rgb([188, 188, 188]));
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        DynamicImage::ImageRgb8(img)
+            .write_to(&mut bytes, image::ImageFormat::Jpeg)
+            .unwrap();
+        let (back, enc) = decode_display_image(bytes.get_ref(), Path::new("x.jpg"), 64).unwrap();
+        assert_eq!(enc, InputEncoding::Srgb(8));
+        // sRGB 188/255 is linear 0.503; JPEG may move a flat grey by a code or two.
+        for v in &back.rgb {
+            assert!((v - 0.503).abs() < 0.01, "{v}");
+        }
     }
 
     #[test]

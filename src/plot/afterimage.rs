@@ -2,6 +2,10 @@
 //! the CIE 1931 chromaticity diagram (Fig. 3, 5) — and a side-by-side figure of the input, the
 //! mask and frames at a few times (Fig. 7, 8).
 
+// Channel loops index RGB triplets as the equations do; `!(a > b)` comparisons deliberately
+// reject NaN along with out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
@@ -91,7 +95,11 @@ pub fn curves_chart(points: &[CurvePoint]) -> Result<Vec<u8>> {
                 )
                 .map_err(draw_err)?;
             chart
-                .draw_series(marks.iter().map(|&p| Circle::new(p, 6, INK.stroke_width(1))))
+                .draw_series(
+                    marks
+                        .iter()
+                        .map(|&p| Circle::new(p, 6, INK.stroke_width(1))),
+                )
                 .map_err(draw_err)?;
         }
         {
@@ -110,12 +118,9 @@ pub fn curves_chart(points: &[CurvePoint]) -> Result<Vec<u8>> {
             draw_curve(&mut chart, &tri, [170, 170, 200], 1)?;
             draw_curve(&mut chart, &track, [30, 30, 30], 2)?;
             chart
-                .draw_series(
-                    TABLE1_XY
-                        .iter()
-                        .zip(&table_swatches)
-                        .map(|(p, c)| Circle::new((p[0], p[1]), 7, RGBColor(c[0], c[1], c[2]).filled())),
-                )
+                .draw_series(TABLE1_XY.iter().zip(&table_swatches).map(|(p, c)| {
+                    Circle::new((p[0], p[1]), 7, RGBColor(c[0], c[1], c[2]).filled())
+                }))
                 .map_err(draw_err)?;
             chart
                 .draw_series(
@@ -124,7 +129,11 @@ pub fn curves_chart(points: &[CurvePoint]) -> Result<Vec<u8>> {
                         .map(|p| Circle::new((p[0], p[1]), 7, INK.stroke_width(1))),
                 )
                 .map_err(draw_err)?;
-            for (xy, shape) in [(REFERENCE_XY_TEXT, 0), (REFERENCE_XY_TABLE1, 1), (D65_XY, 2)] {
+            for (xy, shape) in [
+                (REFERENCE_XY_TEXT, 0),
+                (REFERENCE_XY_TABLE1, 1),
+                (D65_XY, 2),
+            ] {
                 let p = (xy[0], xy[1]);
                 match shape {
                     0 => chart
@@ -132,7 +141,11 @@ pub fn curves_chart(points: &[CurvePoint]) -> Result<Vec<u8>> {
                         .map(|_| ())
                         .map_err(draw_err)?,
                     1 => chart
-                        .draw_series(std::iter::once(TriangleMarker::new(p, 9, BLUE.stroke_width(2))))
+                        .draw_series(std::iter::once(TriangleMarker::new(
+                            p,
+                            9,
+                            BLUE.stroke_width(2),
+                        )))
                         .map(|_| ())
                         .map_err(draw_err)?,
                     _ => chart
@@ -148,7 +161,12 @@ pub fn curves_chart(points: &[CurvePoint]) -> Result<Vec<u8>> {
                 if (*t as usize) % 20 == 0 {
                     let (px, py) = area.map_coordinate(&(xy[0], xy[1]));
                     let (bx, by) = right.get_base_pixel();
-                    super::draw_text(&right, &format!("{t:.0} s"), (px - bx + 10, py - by - 10), style)?;
+                    super::draw_text(
+                        &right,
+                        &format!("{t:.0} s"),
+                        (px - bx + 10, py - by - 10),
+                        style,
+                    )?;
                 }
             }
             let (bx, by) = right.get_base_pixel();
@@ -203,7 +221,12 @@ pub fn side_by_side_figure(tiles: &[FigureTile<'_>], tile_width_px: u32) -> Resu
             let y0 = (title_h + pad) as i32;
             let style = TextSpec::new(17.0, INK, HPos::Center, VPos::Center);
             let title = super::fit_text(&root, &tile.title, style.size_px, tw)?;
-            super::draw_text(&root, &title, (x0 + tw as i32 / 2, (title_h / 2 + pad / 2) as i32), style)?;
+            super::draw_text(
+                &root,
+                &title,
+                (x0 + tw as i32 / 2, (title_h / 2 + pad / 2) as i32),
+                style,
+            )?;
             for ty in 0..th {
                 let sy = ((ty as usize * img.height) / th as usize).min(img.height - 1);
                 for tx in 0..tw {
@@ -213,8 +236,11 @@ pub fn side_by_side_figure(tiles: &[FigureTile<'_>], tile_width_px: u32) -> Resu
                         (eotf_inverse_srgb(f64::from(img.rgb[i + j]).clamp(0.0, 1.0)) * 255.0)
                             .round() as u8
                     });
-                    root.draw_pixel((x0 + tx as i32, y0 + ty as i32), &RGBColor(c[0], c[1], c[2]))
-                        .map_err(draw_err)?;
+                    root.draw_pixel(
+                        (x0 + tx as i32, y0 + ty as i32),
+                        &RGBColor(c[0], c[1], c[2]),
+                    )
+                    .map_err(draw_err)?;
                 }
             }
         }

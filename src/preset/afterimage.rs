@@ -56,7 +56,8 @@ pub struct AfterimageSection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaskSection {
-    /// `relative_luminance_at_least`: Y / Y_max ≥ threshold (and Y > 0).
+    /// `max_channel_at_least`: max(R, G, B) ≥ threshold · the image's largest channel value
+    /// (and Y > 0).
     pub rule: String,
     /// The threshold (0–1).
     pub threshold: f64,
@@ -133,7 +134,7 @@ impl AfterimageSection {
             white_xy: D65_XY,
             normalisation: "input divided by its largest luminance Y (brightest pixel Y = 1 = display white) before the Lab conversions".to_string(),
             mask: MaskSection {
-                rule: "relative_luminance_at_least".to_string(),
+                rule: "max_channel_at_least".to_string(),
                 threshold: params.mask.threshold,
             },
             blur_sigma_px: params.blur_sigma_px,

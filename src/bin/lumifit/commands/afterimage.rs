@@ -79,7 +79,8 @@ pub struct SynthArgs {
     /// Reference light chromaticity x,y (Table 1's start; §3.2 prints 0.43,0.40).
     #[arg(long, value_name = "X,Y")]
     pub reference_xy: Option<String>,
-    /// Mask rule: pixels with Y ≥ this × the image's largest Y make an afterimage (0–1).
+    /// Mask rule: pixels whose largest linear RGB channel is ≥ this × the image's largest
+    /// channel value make an afterimage (0–1; 0: every non-black pixel).
     #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
     pub mask_threshold: f64,
     /// Gaussian blur σ in px (default: 0.4 % of the image diagonal; 0 turns it off).
@@ -124,8 +125,10 @@ fn run_curves(a: &CurvesArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         out.declare("--plot", p)?;
     }
-    let grid = time_grid(a.step_s, a.end_s).map_err(|e| anyhow::anyhow!("--step-s/--end-s: {e}"))?;
-    let points = curves(&grid, range(a.extrapolate)).map_err(|e| anyhow::anyhow!("--end-s: {e}"))?;
+    let grid =
+        time_grid(a.step_s, a.end_s).map_err(|e| anyhow::anyhow!("--step-s/--end-s: {e}"))?;
+    let points =
+        curves(&grid, range(a.extrapolate)).map_err(|e| anyhow::anyhow!("--end-s: {e}"))?;
     out.stage_text(&a.out, &curves_to_csv(&points))?;
     if let Some(p) = &a.plot {
         out.stage(p, &curves_chart(&points)?)?;
@@ -149,7 +152,7 @@ fn parse_times(spec: &str) -> Result<Vec<f64>> {
             bail!("--times: '{spec}'; expected START:STOP:STEP such as 0:80:4");
         }
         let (start, stop, step) = (num(parts[0])?, num(parts[1])?, num(parts[2])?);
-        if !(step > 0.0) || stop < start {
+        if step.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || stop < start {
             bail!("--times: '{spec}'; expected STEP > 0 and STOP ≥ START");
         }
         let n = ((stop - start) / step + 1e-9).floor() as usize;
@@ -183,11 +186,16 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
     let times = match (&a.times, a.fps, a.duration) {
         (Some(spec), _, _) => parse_times(spec)?,
         (None, Some(fps), Some(d)) => {
-            if !(fps.is_finite() && fps > 0.0) || !(d.is_finite() && d >= 0.0) {
+            if !(fps.is_finite() && fps > 0.0 && d.is_finite() && d >= 0.0) {
                 bail!("--fps/--duration: {fps}, {d}; expected fps > 0 and a duration ≥ 0 s");
             }
             let n = (d * fps + 1e-9).floor() as usize;
-            lumifit::limits::check_count("--fps × --duration", n + 1, 100_000, "frames of one run")?;
+            lumifit::limits::check_count(
+                "--fps × --duration",
+                n + 1,
+                100_000,
+                "frames of one run",
+            )?;
             (0..=n).map(|i| i as f64 / fps).collect()
         }
         _ => bail!("give --times or --fps with --duration"),
@@ -211,6 +219,12 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
     };
     params.validate()?;
     lumifit::afterimage::check_times("--times", &times, params.range)?;
+    let mut names = std::collections::HashMap::new();
+    for &t in &times {
+        if let Some(prev) = names.insert(frame_name(t, "png"), t) {
+            bail!("--times: {prev} s and {t} s would both be written as {}; expected distinct times at least 1 ms apart", frame_name(t, "png"));
+        }
+    }
 
     let t_read = Instant::now();
     let image_bytes = lumifit::io::read_input(&a.image)?.0;
@@ -241,7 +255,15 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
     let mut figure_frames: Vec<(f64, LinearImage)> = Vec::new();
     let figure_idx: Vec<usize> = {
         let n = times.len();
-        let mut v: Vec<usize> = (0..4.min(n)).map(|k| if n > 1 { k * (n - 1) / 3.min(n - 1).max(1) } else { 0 }).collect();
+        let mut v: Vec<usize> = (0..4.min(n))
+            .map(|k| {
+                if n > 1 {
+                    k * (n - 1) / 3.min(n - 1).max(1)
+                } else {
+                    0
+                }
+            })
+            .collect();
         v.dedup();
         v
     };
@@ -250,14 +272,19 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
     for (i, &t) in times.iter().enumerate() {
         let t0 = Instant::now();
         let frame = syn.frame(t)?;
-        lumifit::error::ensure_finite(
-            "afterimage frame",
-            &format!("{name} at t = {t} s"),
-            &frame.rgb.iter().map(|v| f64::from(*v)).collect::<Vec<_>>(),
-        )?;
+        if let Some(v) = frame.rgb.iter().find(|v| !v.is_finite()) {
+            lumifit::error::ensure_finite(
+                "afterimage frame",
+                &format!("{name} at t = {t} s"),
+                &[f64::from(*v)],
+            )?;
+        }
         compute_s += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        out.stage(a.out.join(frame_name(t, "png")), &encode_png16_srgb(&frame)?)?;
+        out.stage(
+            a.out.join(frame_name(t, "png")),
+            &encode_png16_srgb(&frame)?,
+        )?;
         if a.exr {
             out.stage(a.out.join(frame_name(t, "exr")), &encode_exr(&frame)?)?;
         }
@@ -278,36 +305,68 @@ fn run_synth(a: &SynthArgs) -> Result<()> {
             None => 1.0,
         })
         .collect();
-    out.stage(a.out.join("preview.apng"), &encode_apng(pw, ph, &preview_frames, &delays)?)?;
+    out.stage(
+        a.out.join("preview.apng"),
+        &encode_apng(pw, ph, &preview_frames, &delays)?,
+    )?;
 
     let points = curves(&times, params.range)?;
     out.stage_text(a.out.join("curves.csv"), &curves_to_csv(&points))?;
     let section = AfterimageSection::new(syn.params(), has_bg, &points);
-    let refs: Vec<(&Path, &[u8])> = inputs.iter().map(|(p, b)| (p.as_path(), b.as_slice())).collect();
+    let refs: Vec<(&Path, &[u8])> = inputs
+        .iter()
+        .map(|(p, b)| (p.as_path(), b.as_slice()))
+        .collect();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut preset = MaterialPreset::new(
-        &format!("afterimage of {}", a.image.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()),
+        format!(
+            "afterimage of {}",
+            a.image
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        ),
         Provenance::new(&command, &refs),
     );
     preset.afterimage = Some(section.to_section()?);
-    out.stage_text(a.out.join("afterimage.preset.json"), &to_json_string(&preset)?)?;
+    out.stage_text(
+        a.out.join("afterimage.preset.json"),
+        &to_json_string(&preset)?,
+    )?;
 
     // Figure: input (normalised to its brightest pixel), mask, frames at up to four times.
     let norm = LinearImage {
-        rgb: input.rgb.iter().map(|v| (f64::from(*v) / syn.input_y_max()) as f32).collect(),
+        rgb: input
+            .rgb
+            .iter()
+            .map(|v| (f64::from(*v) / syn.input_y_max()) as f32)
+            .collect(),
         ..input.clone()
     };
     let mask_img = LinearImage {
-        rgb: syn.mask().iter().flat_map(|&m| [if m { 1.0f32 } else { 0.0 }; 3]).collect(),
+        rgb: syn
+            .mask()
+            .iter()
+            .flat_map(|&m| [if m { 1.0f32 } else { 0.0 }; 3])
+            .collect(),
         ..input.clone()
     };
     let (norm_s, mask_s) = (downscale(&norm, 480), downscale(&mask_img, 480));
     let mut tiles = vec![
-        FigureTile { title: "input I_on (normalised)".into(), image: &norm_s },
-        FigureTile { title: format!("mask (Y ≥ {} Y_max)", params.mask.threshold), image: &mask_s },
+        FigureTile {
+            title: "input I_on (normalised)".into(),
+            image: &norm_s,
+        },
+        FigureTile {
+            title: format!("mask (max RGB ≥ {} of the peak)", params.mask.threshold),
+            image: &mask_s,
+        },
     ];
     for (t, f) in &figure_frames {
-        tiles.push(FigureTile { title: format!("t = {t} s"), image: f });
+        tiles.push(FigureTile {
+            title: format!("t = {t} s"),
+            image: f,
+        });
     }
     out.stage(a.out.join("figure.png"), &side_by_side_figure(&tiles, 300)?)?;
     let written = out.commit()?;
