@@ -214,7 +214,7 @@ fn truncated_real_dng_is_a_clear_error_not_a_crash() {
             assert!(m.contains("half.dng"), "{m}");
         }
         Ok(_) => {
-            eprintln!("note: rawloader decoded a half-truncated DNG (it zero-fills missing data)")
+            eprintln!("note: the decoder read a half-truncated DNG (it zero-fills missing data)")
         }
     }
 }

@@ -1,6 +1,7 @@
-//! The real DNGs in `../shared/data/raw/` handled as a user expects: the 16-bit rewrites decode
-//! with the right black and white levels, the 14-bit original gets a clear error with a
-//! workaround. Each test reports and passes when the folder is absent.
+//! The real DNGs in `../shared/data/raw/` handled as a user expects: all three (the 14-bit
+//! Magic Lantern original and its uncompressed and LJPEG-compressed 16-bit rewrites) decode with
+//! the right black and white levels and identical linear values. Each test reports and passes
+//! when the folder is absent (and `tests/shared_data.rs` fails under LUMIFIT_REQUIRE_DATA=1).
 
 use std::path::{Path, PathBuf};
 
@@ -39,7 +40,7 @@ fn sixteen_bit_rewrites_decode_with_the_documented_black_and_white_levels() {
             frame.saturated_fraction()
         );
         assert_eq!(frame.pixel_scale, 2);
-        // The DNG default crop (rawloader `crops`) trims the 1888×1182 sensor to the image area.
+        // The active area trims the 1888×1182 sensor to the image area.
         let (sw, sh) = frame.source_size();
         assert!(
             sw <= 1888 && sh <= 1182 && sw > 1600 && sh > 1000,
@@ -72,24 +73,15 @@ fn both_sixteen_bit_rewrites_give_identical_linear_values() {
 }
 
 #[test]
-fn fourteen_bit_magic_lantern_dng_is_refused_with_the_reason_and_a_workaround() {
+fn the_fourteen_bit_magic_lantern_original_decodes_to_the_same_values_as_its_rewrites() {
+    // rawloader refused this file ("Don't know about 14 bps"); rawler reads it. The 16-bit
+    // rewrites hold the same photosites, so the linear superpixels must be identical.
     let Some(dir) = raw_dir() else { return };
-    let path = dir.join("tinydng_colorchart.dng");
-    match read_frame(&path) {
-        Ok((frame, info)) => {
-            // If a future rawloader decodes it, the levels must still be right.
-            eprintln!(
-                "note: rawloader now decodes the 14-bit DNG ({}x{})",
-                frame.width, frame.height
-            );
-            assert_eq!(info.black_level.map(|b| b[0]), Some(BLACK));
-        }
-        Err(e) => {
-            let msg = e.to_string();
-            eprintln!("{msg}");
-            assert!(msg.contains("tinydng_colorchart.dng"), "{msg}");
-            assert!(msg.contains("workaround"), "{msg}");
-            assert!(msg.contains("16-bit"), "{msg}");
-        }
-    }
+    let (orig, info) = read_frame(&dir.join("tinydng_colorchart.dng")).expect("14-bit DNG decodes");
+    let (rewrite, _) =
+        read_frame(&dir.join("tinydng_colorchart_rawler_uncompressed16.dng")).unwrap();
+    assert_eq!(info.black_level.map(|b| b[0]), Some(BLACK));
+    assert_eq!(info.white_level, Some(WHITE));
+    assert_eq!((orig.width, orig.height), (rewrite.width, rewrite.height));
+    assert_eq!(orig.data(), rewrite.data());
 }

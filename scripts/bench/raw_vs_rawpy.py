@@ -1,4 +1,4 @@
-"""Decode the same DNG with lumifit (rawloader) and rawpy (LibRaw) in one run: time per frame and
+"""Decode the same DNG with lumifit (rawler) and rawpy (LibRaw) in one run: time per frame and
 agreement of the linear values in regions of interest.
 
     cargo build --release

@@ -1,4 +1,7 @@
-//! Camera RAW files through `rawloader`: black level subtracted per CFA colour, scaled by the
+//! Camera RAW files through `rawler` (dnglab's decoder: compressed and uncompressed DNG, CR2,
+//! CR3, NEF, ARW, RAF, ORF, RW2 … from 500+ cameras; LGPL-2.1 like rawloader, which it grew from
+//! and which could not read 14-bit packed or compressed DNGs): black level subtracted per
+//! photosite (the DNG black-level repeat pattern, counted from the active area), scaled by the
 //! white level, 2×2 superpixels (R, mean of the two G, B) giving a half-resolution linear
 //! camera-RGB [`RgbFrame`] (`pixel_scale = 2`). No demosaicing: region averages do not need it.
 //!
@@ -11,12 +14,11 @@
 //! scale) unless the data exceed it, in which case the 16-bit full scale is used and a warning
 //! is recorded.
 //!
-//! A file rawloader cannot decode (for example a 14-bit packed DNG such as Magic Lantern writes)
-//! is an error naming the file, rawloader's reason, and the workaround.
+//! The frame covers the sensor's active area. A file the decoder cannot read is an error naming
+//! the file, the decoder's reason, and a workaround; a decoder panic on malformed data is caught
+//! and reported the same way, without printing it.
 
 use std::path::Path;
-
-use rawloader::RawImageData;
 
 use crate::capture::{FrameInfo, RgbFrame};
 use crate::error::{Error, Result};
@@ -91,36 +93,46 @@ pub fn read_raw(path: &Path) -> Result<(RgbFrame, FrameInfo)> {
     read_raw_bytes(&bytes, path)
 }
 
-/// As [`read_raw`], from bytes already in memory (`path` names them in messages).
-pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)> {
-    // rawloader panics on some malformed inputs (e.g. truncated data); a panic is a decode error,
+/// What the decoder says about the sensor data, in the terms the superpixel step needs.
+struct Decoded {
+    width: usize,
+    cpp: usize,
+    values: Vec<f32>,
+    is_float: bool,
+    /// Black level per CFA colour (R, G, B, E), for reports.
+    black_by_colour: [f64; 4],
+    /// Black level per position of the 2×2 repeat relative to the active area's corner
+    /// (row-major), as DNG's BlackLevelRepeatDim defines it; one value repeated when uniform.
+    black_by_position: [f64; 4],
+    white_by_colour: [f64; 4],
+    /// Active area x0, y0, x1, y1 in full-image photosites.
+    active: (usize, usize, usize, usize),
+    cfa: Option<rawler::cfa::CFA>,
+}
+
+fn decode(bytes: &[u8], path: &Path) -> Result<Decoded> {
+    // A decoder may panic on malformed inputs (e.g. truncated data); a panic is a decode error,
     // and its text is not printed (the hook is silenced for this thread while decoding).
-    let decoded = quiet_catch_unwind(|| rawloader::decode(&mut std::io::Cursor::new(bytes)));
+    let source = rawler::rawsource::RawSource::new_from_slice(bytes);
+    let decoded = quiet_catch_unwind(|| {
+        rawler::decode(&source, &rawler::decoders::RawDecodeParams::default())
+    });
     let raw = match decoded {
         Ok(Ok(r)) => r,
-        // rawloader catches some of its own panics and says so with a plea to file a bug; for a
-        // user that is the same malformed or truncated file as a panic caught here.
-        Ok(Err(e)) if format!("{e:?}").contains("Caught a panic") => {
-            return Err(decode_error(
-                path,
-                "rawloader failed on malformed or truncated data",
-            ))
-        }
-        Ok(Err(e)) => return Err(decode_error(path, format!("rawloader: {e:?}"))),
+        Ok(Err(e)) => return Err(decode_error(path, format!("rawler: {e}"))),
         Err(cause) => {
             return Err(decode_error(
                 path,
-                format!("rawloader failed on malformed or truncated data: {cause}"),
+                format!("the decoder failed on malformed or truncated data: {cause}"),
             ))
         }
     };
-    let name = path.display().to_string();
     let (w, h, cpp) = (raw.width, raw.height, raw.cpp);
-    let values: Vec<f32> = match &raw.data {
-        RawImageData::Integer(v) => v.iter().map(|&x| f32::from(x)).collect(),
-        RawImageData::Float(v) => v.clone(),
+    let (values, is_float) = match raw.data {
+        rawler::RawImageData::Integer(v) => (v.iter().map(|&x| f32::from(x)).collect(), false),
+        rawler::RawImageData::Float(v) => (v, true),
     };
-    if w == 0 || h == 0 || values.len() < w * h * cpp {
+    if w == 0 || h == 0 || cpp == 0 || values.len() < w * h * cpp {
         return Err(decode_error(
             path,
             format!(
@@ -129,22 +141,88 @@ pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)
             ),
         ));
     }
-    let is_float = matches!(raw.data, RawImageData::Float(_));
-    let black: [f64; 4] = raw.blacklevels.map(f64::from);
-    let white_meta: [f64; 4] = raw.whitelevels.map(f64::from);
+    let active = match raw.active_area {
+        Some(r) => {
+            let (x0, y0) = (r.p.x.min(w), r.p.y.min(h));
+            (x0, y0, (x0 + r.d.w).min(w), (y0 + r.d.h).min(h))
+        }
+        None => (0, 0, w, h),
+    };
+    let cfa = match &raw.photometric {
+        rawler::rawimage::RawPhotometricInterpretation::Cfa(c) => Some(c.cfa.clone()),
+        _ => None,
+    };
+    let levels: Vec<f64> = raw
+        .blacklevel
+        .as_vec()
+        .iter()
+        .map(|&v| f64::from(v))
+        .collect();
+    let black_by_position = if levels.len() == 4 && raw.blacklevel.width == 2 {
+        [levels[0], levels[1], levels[2], levels[3]]
+    } else {
+        [levels.first().copied().unwrap_or(0.0); 4]
+    };
+    let white_levels: Vec<f64> = raw.whitelevel.0.iter().map(|&v| f64::from(v)).collect();
+    let white_at = |i: usize| {
+        white_levels
+            .get(i)
+            .or(white_levels.first())
+            .copied()
+            .unwrap_or(65535.0)
+    };
+    let mut black_by_colour = [black_by_position[0]; 4];
+    let mut white_by_colour = [white_at(0); 4];
+    match (&cfa, cpp) {
+        (Some(cfa), 1) => {
+            for dy in 0..2 {
+                for dx in 0..2 {
+                    let c = cfa.color_at(active.1 + dy, active.0 + dx).min(3);
+                    black_by_colour[c] = black_by_position[dy * 2 + dx];
+                    white_by_colour[c] = white_at(if white_levels.len() == 4 {
+                        dy * 2 + dx
+                    } else {
+                        0
+                    });
+                }
+            }
+        }
+        _ => {
+            for c in 0..cpp.min(3) {
+                black_by_colour[c] = levels.get(c).copied().unwrap_or(black_by_position[0]);
+                white_by_colour[c] = white_at(c);
+            }
+        }
+    }
+    Ok(Decoded {
+        width: w,
+        cpp,
+        values,
+        is_float,
+        black_by_colour,
+        black_by_position,
+        white_by_colour,
+        active,
+        cfa,
+    })
+}
+
+/// As [`read_raw`], from bytes already in memory (`path` names them in messages).
+pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)> {
+    let raw = decode(bytes, path)?;
+    let name = path.display().to_string();
+    let (w, cpp) = (raw.width, raw.cpp);
+    let values = raw.values;
+    let is_float = raw.is_float;
+    let black: [f64; 4] = raw.black_by_colour;
+    let white_meta: [f64; 4] = raw.white_by_colour;
     let mut info = FrameInfo {
         file: name.clone(),
         black_level: Some(black),
         white_level: Some(white_meta.iter().cloned().fold(0.0, f64::max)),
         ..Default::default()
     };
-    // Active area from the crops (top, right, bottom, left).
-    let [top, right, bottom, left] = raw.crops;
-    let (x0, y0) = (left.min(w), top.min(h));
-    let (x1, y1) = (
-        w.saturating_sub(right).max(x0),
-        h.saturating_sub(bottom).max(y0),
-    );
+    let (x0, y0, x1, y1) = raw.active;
 
     if cpp == 3 {
         return linear_raw(
@@ -164,8 +242,17 @@ pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)
             format!("{cpp} components per pixel are not supported"),
         ));
     }
+    let Some(cfa) = raw.cfa else {
+        return Err(decode_error(
+            path,
+            "one component per pixel but no colour filter array; expected a Bayer RAW",
+        ));
+    };
+    // Black per photosite: the 2×2 repeat counts from the active area's corner.
+    let bpos = raw.black_by_position;
+    let black_at = move |y: usize, x: usize| bpos[((y - y0) % 2) * 2 + (x - x0) % 2];
     // The CFA must be a 2×2 Bayer pattern with one R, two G, one B.
-    let colour = |r: usize, c: usize| raw.cfa.color_at(r, c);
+    let colour = |r: usize, c: usize| cfa.color_at(r, c);
     let mut counts = [0usize; 4];
     for dy in 0..2 {
         for dx in 0..2 {
@@ -183,7 +270,7 @@ pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)
             path,
             format!(
                 "CFA pattern '{}' is not a 2×2 Bayer pattern (R, G, G, B)",
-                raw.cfa.to_string()
+                cfa.name
             ),
         ));
     }
@@ -265,7 +352,8 @@ pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)
                     if v >= threshold[c] {
                         bits |= 1 << c;
                     }
-                    acc[c] += (v - black[c]) / (scale_white[c] - black[c]);
+                    let b = black_at(y, x);
+                    acc[c] += (v - b) / (scale_white[c] - b);
                     n[c] += 1;
                 }
             }
