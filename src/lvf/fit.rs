@@ -18,7 +18,7 @@ use crate::lvf::calibration::{
 };
 use crate::lvf::lamp::Lamp;
 use crate::lvf::profile::Profile;
-use crate::math::minimize::golden_min;
+use crate::math::minimize::brent_min;
 
 /// Passband shape g(Δλ).
 #[derive(Debug, Clone, PartialEq)]
@@ -740,7 +740,7 @@ pub fn calibrate_whole_profile(
             l[gi] += d;
             full.eval_with(&theta, &l).sse
         };
-        let d = golden_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-4);
+        let d = brent_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-4);
         for &k in g {
             shifts[k] = d;
         }
