@@ -96,8 +96,14 @@ pub struct LmOptions {
     pub fd_step: f64,
     /// Central differences (two evaluations per column) instead of forward differences.
     pub fd_central: bool,
-    /// Initial damping relative to the largest squared column norm of J (MINPACK's `factor`).
+    /// Initial damping μ₀ of the scaled system `JᵀJ + μ D²` (D² the squared column norms of J,
+    /// so μ₀ is dimensionless; Marquardt's 1e-3 by default).
     pub initial_damping: f64,
+    /// Largest change of each parameter in one step (length p), a box trust region in the
+    /// parameters' own units: each component of the damped step is clamped to it. For
+    /// parameters such as log-rates, where the cost is flat far from the data's time scales
+    /// and an undamped step would jump onto such a plateau.
+    pub max_step: Option<Vec<f64>>,
 }
 
 impl Default for LmOptions {
@@ -114,6 +120,7 @@ impl Default for LmOptions {
             fd_step: 6e-6,
             fd_central: true,
             initial_damping: 1e-3,
+            max_step: None,
         }
     }
 }
@@ -298,6 +305,12 @@ pub fn levenberg_marquardt<P: Residuals + ?Sized>(
         lower.iter().zip(&upper).all(|(l, u)| l <= u),
         "a lower bound exceeds its upper bound"
     );
+    assert!(
+        opts.max_step
+            .as_ref()
+            .is_none_or(|m| m.len() == p && m.iter().all(|v| *v > 0.0)),
+        "max_step needs {p} positive values"
+    );
     let project = |t: &mut [f64]| {
         for j in 0..t.len() {
             t[j] = t[j].clamp(lower[j], upper[j]);
@@ -393,11 +406,9 @@ pub fn levenberg_marquardt<P: Residuals + ?Sized>(
             qtr[m..].iter_mut().for_each(|v| *v = 0.0);
             qr.qt_mul(&mut qtr);
             if mu == 0.0 {
-                let dmax = free.iter().fold(0.0_f64, |a, &q| a.max(diag[q]));
-                mu = opts.initial_damping * dmax * dmax;
-                if mu == 0.0 {
-                    mu = opts.initial_damping;
-                }
+                // the damping term is μ·D² with D² ≈ diag(JᵀJ) (Marquardt's scaling), so the
+                // initial μ is dimensionless
+                mu = opts.initial_damping;
             }
         }
         iterations += 1;
@@ -420,7 +431,11 @@ pub fn levenberg_marquardt<P: Residuals + ?Sized>(
         small.solve_r(&rhs, &mut step_free[..k]);
         trial_theta.copy_from_slice(&theta);
         for (j, &q) in free.iter().enumerate() {
-            trial_theta[q] = theta[q] + step_free[j];
+            let d = match &opts.max_step {
+                Some(ms) => step_free[j].clamp(-ms[q], ms[q]),
+                None => step_free[j],
+            };
+            trial_theta[q] = theta[q] + d;
         }
         project(&mut trial_theta);
         for q in 0..p {
