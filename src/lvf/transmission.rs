@@ -66,6 +66,8 @@ use crate::error::{Error, Result};
 use crate::fit::regularized::{
     condition_number, solve_regularized, RegularizedOptions, Smoothness, Weight,
 };
+use crate::fit::stats;
+use crate::fit::{levenberg_marquardt, LmOptions, Residuals};
 use crate::lvf::geometry::{BandReadings, LvfGeometry};
 
 /// Schema tag of `lvf_bands.json`.
@@ -1345,83 +1347,60 @@ impl ParamFit<'_> {
 
 /// Bounds of the parametric fit (a prior): centre within ± half the calibration's FWHM of the
 /// calibrated centre, FWHM within 0.5–2 times the calibration's, exponent 0.3–10.
-fn clamp_theta(th: &mut [f64], w0: f64) {
-    th[0] = th[0].clamp(-0.5 * w0, 0.5 * w0);
-    th[1] = th[1].clamp(0.5 * w0, 2.0 * w0);
-    if th.len() > 2 {
-        th[2] = th[2].clamp(0.3, 10.0);
+fn theta_bounds(np: usize, w0: f64) -> (Vec<f64>, Vec<f64>) {
+    let (mut lo, mut hi) = (vec![-0.5 * w0, 0.5 * w0], vec![0.5 * w0, 2.0 * w0]);
+    if np > 2 {
+        lo.push(0.3);
+        hi.push(10.0);
     }
+    (lo, hi)
 }
 
 fn fd_steps(th: &[f64]) -> Vec<f64> {
     th.iter().map(|v| 1e-5 * v.abs().max(1.0)).collect()
 }
 
-/// Levenberg–Marquardt on the projected residual; returns θ and whether it converged.
-fn levenberg_marquardt(f: &ParamFit, mut th: Vec<f64>, w0: f64) -> (Vec<f64>, bool) {
-    let np = th.len();
-    let (mut r, _) = f.residual(&th);
-    let mut rss: f64 = r.iter().map(|v| v * v).sum();
-    let mut mu = 1e-3;
-    for _ in 0..200 {
-        let h = fd_steps(&th);
-        let m = r.len();
-        let mut jac = DMatrix::zeros(m, np);
-        for k in 0..np {
-            let mut tp = th.clone();
-            let mut tm = th.clone();
-            tp[k] += h[k];
-            tm[k] -= h[k];
-            let (rp, _) = f.residual(&tp);
-            let (rm, _) = f.residual(&tm);
-            for i in 0..m {
-                jac[(i, k)] = (rp[i] - rm[i]) / (2.0 * h[k]);
-            }
-        }
-        let jt = jac.transpose();
-        let jtj = &jt * &jac;
-        let jtr = &jt * nalgebra::DVector::from_column_slice(&r);
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut a = jtj.clone();
-            for k in 0..np {
-                a[(k, k)] += mu * jtj[(k, k)].max(1e-12);
-            }
-            let Some(step) = a.lu().solve(&(-&jtr)) else {
-                mu *= 10.0;
-                continue;
-            };
-            let mut cand: Vec<f64> = th.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-            clamp_theta(&mut cand, w0);
-            let (rc, _) = f.residual(&cand);
-            let rssc: f64 = rc.iter().map(|v| v * v).sum();
-            if rssc < rss {
-                let small = th
-                    .iter()
-                    .zip(&cand)
-                    .all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(1.0));
-                let rel = (rss - rssc) / rss.max(1e-300);
-                th = cand;
-                r = rc;
-                rss = rssc;
-                mu = (mu / 3.0).max(1e-12);
-                improved = true;
-                if small || rel < 1e-12 {
-                    return (th, true);
-                }
-                break;
-            }
-            mu *= 4.0;
-            if mu > 1e12 {
-                break;
-            }
-        }
-        if !improved {
-            // No step lowers the RSS: at a (local) minimum up to rounding.
-            return (th, true);
+/// The projected residual (peak solved in closed form) as a problem for
+/// [`fit::lm`](crate::fit::lm), with central differences at the steps of [`fd_steps`].
+impl Residuals for ParamFit<'_> {
+    fn n_residuals(&self) -> usize {
+        self.yw.len()
+    }
+    fn n_params(&self) -> usize {
+        if self.fit_exponent {
+            3
+        } else {
+            2
         }
     }
-    (th, false)
+    fn residuals(&self, th: &[f64], out: &mut [f64]) -> bool {
+        out.copy_from_slice(&self.residual(th).0);
+        true
+    }
+    fn jacobian(&self, th: &[f64], jac: &mut [f64]) -> bool {
+        let m = self.yw.len();
+        let h = fd_steps(th);
+        for k in 0..th.len() {
+            let mut tp = th.to_vec();
+            let mut tm = th.to_vec();
+            tp[k] += h[k];
+            tm[k] -= h[k];
+            let (rp, _) = self.residual(&tp);
+            let (rm, _) = self.residual(&tm);
+            for i in 0..m {
+                jac[k * m + i] = (rp[i] - rm[i]) / (2.0 * h[k]);
+            }
+        }
+        true
+    }
+}
+
+/// Levenberg–Marquardt ([`fit::lm`](crate::fit::lm)) within the bounds of [`theta_bounds`];
+/// returns θ and whether it converged.
+fn fit_band_shape(f: &ParamFit, th: Vec<f64>, w0: f64) -> (Vec<f64>, bool) {
+    let (lo, hi) = theta_bounds(th.len(), w0);
+    let rep = levenberg_marquardt(f, &th, &LmOptions::default().with_bounds(lo, hi));
+    (rep.theta, rep.termination.converged())
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -1463,7 +1442,7 @@ fn parametric_band(
     if super_gaussian {
         start.push(1.0);
     }
-    let (th, converged) = levenberg_marquardt(&f, start, w0);
+    let (th, converged) = fit_band_shape(&f, start, w0);
     let at_bound = {
         let [lo_d, hi_d, lo_w, hi_w] = [-0.5 * w0, 0.5 * w0, 0.5 * w0, 2.0 * w0];
         th[0] <= lo_d + 1e-6
@@ -1495,9 +1474,8 @@ fn parametric_band(
         jac[(i, np)] = u[i];
     }
     let s2 = rss / (m as f64 - (np + 1) as f64).max(1.0);
-    let cov = (jac.transpose() * &jac)
-        .try_inverse()
-        .map(|c| c * s2)
+    let cov = stats::covariance_scaled(jac.as_slice(), m, np + 1, s2)
+        .map(|c| DMatrix::from_column_slice(np + 1, np + 1, &c))
         .unwrap_or_else(|| DMatrix::from_element(np + 1, np + 1, f64::NAN));
     let sd = |k: usize| {
         let v = cov[(k, k)];
