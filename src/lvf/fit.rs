@@ -773,7 +773,7 @@ pub fn calibrate_whole_profile(
         }),
     };
     let mut cal = LvfCalibration {
-        schema: "lumifit.lvf/1",
+        schema: crate::lvf::calibration::LVF_SCHEMA,
         method: "whole-profile".into(),
         source: profile.source.clone(),
         axis: profile.axis,
