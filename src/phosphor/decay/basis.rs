@@ -30,21 +30,27 @@ pub(super) fn uniform_step(tau: &[f64]) -> Option<f64> {
 }
 
 impl SeparableModel for ExpBasis<'_> {
+    #[inline]
     fn n_rows(&self) -> usize {
         self.tau.len()
     }
+    #[inline]
     fn n_params(&self) -> usize {
         self.n_exp
     }
+    #[inline]
     fn n_cols(&self) -> usize {
         self.n_exp + usize::from(self.background)
     }
+    #[inline]
     fn column_param(&self, col: usize) -> Option<usize> {
         (col < self.n_exp).then_some(col)
     }
+    #[inline]
     fn column_free(&self, col: usize) -> bool {
         col >= self.n_exp
     }
+    #[inline]
     fn eval(&self, theta: &[f64], basis: &mut [f64], dbasis: &mut [f64]) {
         let m = self.tau.len();
         for (j, th) in theta.iter().enumerate().take(self.n_exp) {
