@@ -4,7 +4,7 @@
 
 use lumifit::lvf::{
     calibrate_peaks, calibrate_whole_profile, extract_profile, render_lvf, synth::default_camera,
-    Axis, FitOptions, Lamp, LvfSynthSpec,
+    Axis, FitOptions, Lamp, LvfGeometry, LvfSynthSpec,
 };
 
 /// Issue requirement: |Δλ| at 400 and 700 nm within 0.3 nm at 1 % noise.
@@ -35,6 +35,11 @@ fn errors(s: &LvfSynthSpec, fit_lamp: &Lamp) -> ([f64; 2], Option<[f64; 2]>) {
     let profile = extract_profile(&frame, roi, Axis::X).unwrap();
     let opts = FitOptions::default();
     let cal = calibrate_whole_profile(&profile, fit_lamp, &opts).unwrap();
+    // lvf.json round trip: the writer's serde output read back by the typed reader gives the
+    // geometry of the calibration itself
+    let json = serde_json::to_vec_pretty(&cal).unwrap();
+    let back = LvfGeometry::from_json(&json, "lvf.json").unwrap();
+    assert_eq!(back, LvfGeometry::from_calibration(&cal, "lvf.json"));
     let e = [
         cal.map.eval(truth.px_at_400) - 400.0,
         cal.map.eval(truth.px_at_700) - 700.0,

@@ -56,6 +56,12 @@ fn design_reproduces_every_keyframe_generated_from_known_parameters_within_one_p
             },
         )
         .unwrap();
+        eprintln!(
+            "design {k_e:?} k_r {k_r}: grid cost {:.4e}, refined cost {:.4e}, worst keyframe residual {:.3e}",
+            d.grid.cost,
+            d.refined.cost,
+            d.refined.relative_residual.iter().fold(0.0_f64, |a, v| a.max(*v))
+        );
         assert!(d.reachable, "{k_e:?} {k_r}: {}", d.note);
         for r in &d.refined.relative_residual {
             assert!(*r <= REACHABLE_REL, "residual {r} for {k_e:?} {k_r}");
@@ -78,6 +84,10 @@ fn unreachable_targets_give_the_best_compromise_and_a_residual_per_keyframe() {
         },
     )
     .unwrap();
+    eprintln!(
+        "unreachable: refined cost {:.6e}, residuals {:?}",
+        d.refined.cost, d.refined.relative_residual
+    );
     assert!(!d.reachable);
     assert!(d.note.contains("not reachable"), "{}", d.note);
     assert_eq!(d.refined.relative_residual.len(), 4);

@@ -34,6 +34,14 @@ fn excitation_fit_recovers_table1_rates_within_the_reported_uncertainty_at_one_p
         let truth = m.states[0].k_e.as_ref().unwrap();
         for b in &fit.bands {
             let (k, s) = (b.k_e[0], b.k_e_sigma[0]);
+            eprintln!(
+                "{} band {}: k_e {k:.6e} ± {s:.3e} (truth {:.6e}, {:+.2} σ, {} iterations)",
+                m.name,
+                b.band + 1,
+                truth[b.band],
+                (k - truth[b.band]) / s,
+                b.iterations
+            );
             assert!(
                 (k - truth[b.band]).abs() <= SIGMAS * s + 1e-12,
                 "{} band {}: {k} ± {s} vs {}",
@@ -131,6 +139,11 @@ fn noise_free_charging_data_are_fitted_to_rounding() {
     let fit = fit_excitation(m, &cam, &src, &data, &ExcitationOptions::default()).unwrap();
     let truth = m.states[0].k_e.as_ref().unwrap();
     for b in &fit.bands {
+        eprintln!(
+            "noise-free band {}: relative k_e error {:.3e}",
+            b.band + 1,
+            (b.k_e[0] - truth[b.band]) / truth[b.band]
+        );
         assert!(((b.k_e[0] - truth[b.band]) / truth[b.band]).abs() < 1e-6);
     }
     let y = charging_rgb(m, &cam, &src[0].1, 0.0, 0.6).unwrap();

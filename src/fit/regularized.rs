@@ -14,7 +14,7 @@
 //! `L⁻¹AᵀA L⁻ᵀ = V Σ Vᵀ` with `L Lᵀ = AᵀA + s DᵀD` (Cholesky), so that
 //! `AᵀA + μ DᵀD = L V diag(σᵢ + λ(1 − σᵢ)) Vᵀ Lᵀ` — the solution, the residual norm and
 //! `tr H` (H the hat matrix) cost O(n) per trial λ. GCV(λ) = m·RSS/(m − tr H)² is scanned on a
-//! log grid from 1e-10 to 1e6 and refined by golden-section search. GCV is evaluated on the
+//! log grid from 1e-10 to 1e6 and refined by Brent's method (argmin). GCV is evaluated on the
 //! unconstrained problem (as is usual); the non-negative solution at the chosen weight then comes
 //! from Lawson–Hanson NNLS on the stacked system `[A; √μ D] x ≈ [b; 0]`.
 //!
@@ -30,8 +30,9 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::nnls::nnls;
 use super::qr::Qr;
+use super::search::log_grid_min;
 use crate::error::{Error, Result};
-use crate::math::minimize::golden_min;
+use crate::math::minimize::brent_min;
 
 /// Order of the difference operator in the penalty.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -435,30 +436,16 @@ pub fn solve_regularized(
     let lambda = match opts.weight {
         Weight::Fixed(l) => l,
         Weight::Gcv => {
-            let (lo, hi, steps) = (-10.0f64, 6.0f64, 161);
-            let mut best = (f64::INFINITY, lo);
-            for k in 0..steps {
-                let e = lo + (hi - lo) * k as f64 / (steps - 1) as f64;
-                let lam = 10f64.powf(e);
-                let v = pencil.gcv(lam, m);
-                gcv_curve.push((lam, v));
-                if v < best.0 {
-                    best = (v, e);
-                }
-            }
-            if !best.0.is_finite() {
+            let grid = log_grid_min(1e-10, 1e6, 161, |lam| pencil.gcv(lam, m));
+            gcv_curve.extend(grid.points.iter().copied().zip(grid.values.iter().copied()));
+            if !grid.value().is_finite() {
                 return Err(Error::Numerical {
                     what: "GCV weight choice".into(),
                     reason: format!("{m} equations for {n} unknowns leave no degrees of freedom for cross-validation within the allowed effective parameters; give the weight explicitly"),
                 });
             }
-            let step = (hi - lo) / (steps - 1) as f64;
-            let e = golden_min(
-                |e| pencil.gcv(10f64.powf(e), m),
-                (best.1 - step).max(lo),
-                (best.1 + step).min(hi),
-                1e-4,
-            );
+            let (a, b) = grid.bracket();
+            let e = brent_min(|e| pencil.gcv(10f64.powf(e), m), a.log10(), b.log10(), 1e-4);
             10f64.powf(e)
         }
     };

@@ -22,6 +22,8 @@
 
 use super::nnls::nnls;
 use super::qr::Qr;
+pub use super::termination::Termination;
+use super::termination::{cost_converged, cost_stalled, norm, step_converged};
 
 /// A separable model: the basis Φ(θ) and its column derivatives. Knows nothing about the data.
 pub trait SeparableModel {
@@ -38,36 +40,6 @@ pub trait SeparableModel {
     /// Fills `basis` and `dbasis` (both m × n column-major): `dbasis[:, j] = ∂φ_j/∂θ_{param(j)}`
     /// (zero for columns without a parameter).
     fn eval(&self, theta: &[f64], basis: &mut [f64], dbasis: &mut [f64]);
-}
-
-/// Why the iteration stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Termination {
-    /// The relative reduction of the cost fell below `ftol`.
-    CostConverged,
-    /// The step fell below `xtol` relative to the parameters.
-    StepConverged,
-    /// The projected gradient vanished (within `gtol`).
-    GradientConverged,
-    /// `max_iter` iterations were used.
-    MaxIterations,
-    /// The damping grew without finding a reducing step.
-    NoProgress,
-    /// The cost or model became non-finite.
-    NonFinite,
-}
-
-impl Termination {
-    /// True for the converged reasons.
-    pub fn converged(self) -> bool {
-        matches!(
-            self,
-            Termination::CostConverged
-                | Termination::StepConverged
-                | Termination::GradientConverged
-        )
-    }
 }
 
 /// Stopping rules and limits.
@@ -90,6 +62,18 @@ impl Default for SolverOptions {
             ftol: 1e-12,
             xtol: 1e-10,
             gtol: 1e-10,
+        }
+    }
+}
+
+impl From<&super::lm::LmOptions> for SolverOptions {
+    /// The stopping rules of [`LmOptions`](super::lm::LmOptions) (varpro has no bounds).
+    fn from(o: &super::lm::LmOptions) -> Self {
+        SolverOptions {
+            max_iter: o.max_iter,
+            ftol: o.ftol,
+            xtol: o.xtol,
+            gtol: o.gtol,
         }
     }
 }
@@ -398,20 +382,20 @@ pub fn solve_separable<M: SeparableModel>(
         let actual = 0.5 * (cur.rss - trial.rss);
         if ok && trial.rss.is_finite() && actual > 0.0 {
             let rho = if pred > 0.0 { actual / pred } else { 1.0 };
-            let rel_cost = (cur.rss - trial.rss) / cur.rss.max(f64::MIN_POSITIVE);
-            let step_norm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let theta_norm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let old_rss = cur.rss;
+            let step_norm = norm(&step);
+            let theta_norm = norm(&theta);
             theta.copy_from_slice(&trial_theta);
             std::mem::swap(&mut cur, &mut trial);
             need_jac = true;
             mu *= (1.0_f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
             nu = 2.0;
             // MINPACK's rule: actual and predicted relative reductions both tiny
-            if rel_cost <= opts.ftol && 2.0 * pred / cur.rss.max(f64::MIN_POSITIVE) <= opts.ftol {
+            if cost_converged(old_rss, cur.rss, pred, opts.ftol) {
                 termination = Termination::CostConverged;
                 break;
             }
-            if step_norm <= opts.xtol * (theta_norm + opts.xtol) {
+            if step_converged(step_norm, theta_norm, opts.xtol) {
                 termination = Termination::StepConverged;
                 break;
             }
@@ -420,21 +404,14 @@ pub fn solve_separable<M: SeparableModel>(
                 termination = Termination::NonFinite;
                 break;
             }
-            let step_norm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let theta_norm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if ok && step_norm <= opts.xtol * (theta_norm + opts.xtol) {
+            if ok && step_converged(norm(&step), norm(&theta), opts.xtol) {
                 termination = Termination::StepConverged;
                 break;
             }
             // MINPACK's rule also applies to a rejected step: when the predicted reduction and
             // the actual change are both below ftol relative to the cost, the cost is at its
             // minimum to the requested precision (the "increase" is rounding).
-            let scale = cur.rss.max(f64::MIN_POSITIVE);
-            if ok
-                && trial.rss.is_finite()
-                && 2.0 * pred / scale <= opts.ftol
-                && 2.0 * actual.abs() / scale <= opts.ftol
-            {
+            if ok && cost_stalled(cur.rss, trial.rss, pred, opts.ftol) {
                 termination = Termination::CostConverged;
                 break;
             }

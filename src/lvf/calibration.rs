@@ -8,8 +8,11 @@
 use crate::error::{Error, Result};
 use crate::lvf::profile::Axis;
 
+/// Schema tag of `lvf.json`.
+pub const LVF_SCHEMA: &str = "lumifit.lvf/1";
+
 /// Polynomial degree of the position → wavelength map.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MapKind {
     /// λ = c0 + c1·px.
@@ -97,8 +100,12 @@ pub struct LineReport {
     pub amplitude: [f64; 3],
 }
 
-/// One averaging band.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+fn in_roi_default() -> bool {
+    true
+}
+
+/// One averaging band (written to and read from `lvf.json` by serde).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Band {
     /// Centre wavelength (nm).
     pub nm: f64,
@@ -106,7 +113,8 @@ pub struct Band {
     pub px: f64,
     /// Width to average over (px): the band spacing in nm divided by |dλ/dpx|.
     pub width_px: f64,
-    /// Whether the band centre lies inside the ROI.
+    /// Whether the band centre lies inside the ROI (true when absent).
+    #[serde(default = "in_roi_default")]
     pub in_roi: bool,
 }
 

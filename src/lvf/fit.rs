@@ -4,7 +4,8 @@
 //! u = (px − px_mid)/half_length as λ(u) = a0 + a1·u [+ a2·u²] (well conditioned); linear
 //! parameters per channel: background b + s·u and one amplitude ≥ 0 per line, solved by
 //! Lawson–Hanson non-negative least squares on the normal equations for every θ. θ is refined by
-//! Levenberg–Marquardt on the projected residual (central-difference Jacobian), started from the
+//! the crate's Levenberg–Marquardt ([`fit::lm`](crate::fit::lm)) on the projected residual
+//! (central-difference Jacobian), started from the
 //! best few cells of a coarse grid over (a0, a1) at the guessed FWHM. The covariance of θ is
 //! s²(JᵀJ)⁻¹ with s² = SSE/(N − p − k) (N samples over all channels, p nonlinear, k active
 //! linear parameters) and is propagated to the coefficients in pixels.
@@ -13,12 +14,14 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::fit::stats;
+use crate::fit::{levenberg_marquardt, LmOptions, Residuals};
 use crate::lvf::calibration::{
     LineReport, LvfCalibration, MapKind, MapModel, MapSelection, ProfileCurves,
 };
 use crate::lvf::lamp::Lamp;
 use crate::lvf::profile::Profile;
-use crate::math::minimize::golden_min;
+use crate::math::minimize::brent_min;
 
 /// Passband shape g(Δλ).
 #[derive(Debug, Clone, PartialEq)]
@@ -361,54 +364,51 @@ impl<'a> Problem<'a> {
         DMatrix::from_fn(m, p, |i, j| cols[j][i])
     }
 
-    /// Levenberg–Marquardt on the projected residual. Returns θ, its evaluation, the final
-    /// Jacobian and the number of iterations.
+    /// Levenberg–Marquardt ([`fit::lm`](crate::fit::lm)) on the projected residual. Returns θ,
+    /// its evaluation, the final Jacobian and the number of iterations.
     fn levenberg_marquardt(&self, theta0: &[f64]) -> (Vec<f64>, Eval, DMatrix<f64>, usize) {
-        let mut theta = theta0.to_vec();
-        let mut cur = self.eval(&theta);
-        let mut mu = 1e-3;
-        let mut iters = 0;
-        let mut jac = self.jacobian(&theta);
-        for it in 0..200 {
-            iters = it + 1;
-            let jt = jac.transpose();
-            let a = &jt * &jac;
-            let r = DVector::from_column_slice(&cur.residual);
-            let g = &jt * r;
-            let mut improved = false;
-            while mu < 1e12 {
-                let mut m = a.clone();
-                for i in 0..m.nrows() {
-                    m[(i, i)] += mu * a[(i, i)].max(1e-12);
-                }
-                let Some(step) = m.lu().solve(&(-&g)) else {
-                    mu *= 10.0;
-                    continue;
-                };
-                let trial: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
-                if Self::valid(&trial) {
-                    let e = self.eval(&trial);
-                    if e.sse < cur.sse {
-                        let rel = (cur.sse - e.sse) / cur.sse.max(1e-300);
-                        theta = trial;
-                        cur = e;
-                        mu = (mu / 3.0).max(1e-12);
-                        improved = true;
-                        if rel < 1e-12 {
-                            mu = 1e12; // converged
-                        }
-                        break;
-                    }
-                }
-                mu *= 4.0;
-            }
-            if !improved || mu >= 1e12 {
-                break;
-            }
-            jac = self.jacobian(&theta);
+        let p = theta0.len();
+        let opts = LmOptions {
+            covariance: true,
+            ..LmOptions::default()
+        };
+        let rep = levenberg_marquardt(&Projected { problem: self, p }, theta0, &opts);
+        let eval = self.eval(&rep.theta);
+        let m = eval.residual.len();
+        let jac = match rep.jacobian {
+            Some(j) => DMatrix::from_column_slice(m, p, &j),
+            None => self.jacobian(&rep.theta),
+        };
+        (rep.theta, eval, jac, rep.iterations)
+    }
+}
+
+/// The projected problem of θ (p = 3 or 4 nonlinear parameters) for [`fit::lm`](crate::fit::lm):
+/// residuals of all three channels with the linear coefficients solved by NNLS; θ outside
+/// 1 < FWHM < 200 nm or with a vanishing slope is outside the domain. The Jacobian is the
+/// problem's own central differences (one rayon task per column, steps scaled per parameter).
+struct Projected<'p, 'a> {
+    problem: &'p Problem<'a>,
+    p: usize,
+}
+
+impl Residuals for Projected<'_, '_> {
+    fn n_residuals(&self) -> usize {
+        3 * self.problem.u.len()
+    }
+    fn n_params(&self) -> usize {
+        self.p
+    }
+    fn residuals(&self, theta: &[f64], out: &mut [f64]) -> bool {
+        if !Problem::valid(theta) {
+            return false;
         }
-        let jac = self.jacobian(&theta);
-        (theta, cur, jac, iters)
+        out.copy_from_slice(&self.problem.eval(theta).residual);
+        true
+    }
+    fn jacobian(&self, theta: &[f64], jac: &mut [f64]) -> bool {
+        jac.copy_from_slice(self.problem.jacobian(theta).as_slice());
+        true
     }
 }
 
@@ -740,7 +740,7 @@ pub fn calibrate_whole_profile(
             l[gi] += d;
             full.eval_with(&theta, &l).sse
         };
-        let d = golden_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-4);
+        let d = brent_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-4);
         for &k in g {
             shifts[k] = d;
         }
@@ -773,7 +773,7 @@ pub fn calibrate_whole_profile(
         }),
     };
     let mut cal = LvfCalibration {
-        schema: "lumifit.lvf/1",
+        schema: crate::lvf::calibration::LVF_SCHEMA,
         method: "whole-profile".into(),
         source: profile.source.clone(),
         axis: profile.axis,
@@ -802,11 +802,12 @@ pub fn calibrate_whole_profile(
     Ok(cal)
 }
 
-/// s²(JᵀJ)⁻¹, or None when JᵀJ is singular.
+/// s²(JᵀJ)⁻¹ with s² = SSE/dof ([`fit::stats`](crate::fit::stats), through the QR of J), or
+/// None when J is rank deficient.
 fn covariance(jac: &DMatrix<f64>, sse: f64, dof: f64) -> Option<DMatrix<f64>> {
-    let a = jac.transpose() * jac;
-    let inv = a.try_inverse()?;
-    Some(inv * (sse / dof))
+    let (m, p) = jac.shape();
+    let c = stats::covariance_scaled(jac.as_slice(), m, p, sse / dof)?;
+    Some(DMatrix::from_column_slice(p, p, &c))
 }
 
 #[cfg(test)]

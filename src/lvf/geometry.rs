@@ -9,7 +9,9 @@
 
 use crate::capture::RgbFrame;
 use crate::error::{Error, Result};
-use crate::lvf::calibration::{Band, LvfCalibration};
+use serde::Deserialize;
+
+use crate::lvf::calibration::{Band, LvfCalibration, MapKind, LVF_SCHEMA};
 use crate::lvf::fit::Passband;
 use crate::lvf::profile::{extract_profile, Axis};
 
@@ -44,23 +46,32 @@ pub struct BandReadings {
     pub pixels: Vec<usize>,
 }
 
-fn field<'a>(v: &'a serde_json::Value, key: &str, src: &str) -> Result<&'a serde_json::Value> {
-    v.get(key).ok_or_else(|| {
-        Error::parse(
-            src,
-            0,
-            format!(
-                "missing field '{key}'; expected an lvf.json written by 'lumifit lvf calibrate'"
-            ),
-        )
-    })
+/// `lvf.json` as read: the fields of [`LvfCalibration`] the downstream tools need, with the
+/// writer's own types ([`Axis`], [`MapKind`], [`Band`]); the writer's other fields (lines,
+/// diagnostics, curves, …) are ignored so the contract may grow.
+#[derive(Debug, Deserialize)]
+struct LvfFile {
+    axis: Axis,
+    roi: [usize; 4],
+    map: MapFile,
+    fwhm_nm: f64,
+    #[serde(default)]
+    fwhm_sigma_nm: f64,
+    bands: Vec<Band>,
 }
 
-fn number(v: &serde_json::Value, key: &str, src: &str) -> Result<f64> {
-    field(v, key, src)?
-        .as_f64()
-        .filter(|x| x.is_finite())
-        .ok_or_else(|| Error::parse(src, 0, format!("field '{key}': expected a finite number")))
+/// The `map` object of `lvf.json` (its covariance is not needed downstream).
+#[derive(Debug, Deserialize)]
+struct MapFile {
+    #[serde(default)]
+    kind: Option<MapKind>,
+    coefficients: Vec<f64>,
+}
+
+/// Schema tag, read first so another JSON file gets that message, not a missing field.
+#[derive(Debug, Deserialize)]
+struct SchemaTag {
+    schema: Option<String>,
 }
 
 impl LvfGeometry {
@@ -71,54 +82,48 @@ impl LvfGeometry {
     /// map is not increasing or decreasing over the bands, the FWHM is not positive, or there are
     /// fewer than 2 bands.
     pub fn from_json(bytes: &[u8], source: &str) -> Result<Self> {
-        let v: serde_json::Value = serde_json::from_slice(bytes)
+        let tag: SchemaTag = serde_json::from_slice(bytes)
             .map_err(|e| Error::parse(source, e.line(), format!("not JSON: {e}")))?;
-        let schema = field(&v, "schema", source)?.as_str().unwrap_or("");
-        if schema != "lumifit.lvf/1" {
+        let schema = tag.schema.unwrap_or_default();
+        if schema != LVF_SCHEMA {
             return Err(Error::parse(
                 source,
                 0,
-                format!("field 'schema' is '{schema}'; expected 'lumifit.lvf/1' (an lvf.json from 'lumifit lvf calibrate')"),
+                format!("field 'schema' is '{schema}'; expected '{LVF_SCHEMA}' (an lvf.json from 'lumifit lvf calibrate')"),
             ));
         }
-        let axis = match field(&v, "axis", source)?.as_str() {
-            Some("x") => Axis::X,
-            Some("y") => Axis::Y,
-            _ => {
-                return Err(Error::parse(
-                    source,
-                    0,
-                    "field 'axis': expected \"x\" or \"y\"",
-                ))
-            }
-        };
-        let roi_v: Vec<usize> = field(&v, "roi", source)?
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|x| x.as_u64().map(|u| u as usize))
-                    .collect()
-            })
-            .unwrap_or_default();
-        if roi_v.len() != 4 || roi_v[2] == 0 || roi_v[3] == 0 {
+        let f: LvfFile = serde_json::from_slice(bytes).map_err(|e| {
+            Error::parse(
+                source,
+                e.line(),
+                format!("{e}; expected an lvf.json written by 'lumifit lvf calibrate'"),
+            )
+        })?;
+        let roi_v = f.roi;
+        if roi_v[2] == 0 || roi_v[3] == 0 {
             return Err(Error::parse(
                 source,
                 0,
                 "field 'roi': expected [x, y, w, h] with w, h > 0",
             ));
         }
-        let map: Vec<f64> = field(field(&v, "map", source)?, "coefficients", source)?
-            .as_array()
-            .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
-            .unwrap_or_default();
-        if map.len() < 2 || map.iter().any(|c| !c.is_finite()) {
+        let map = f.map.coefficients;
+        let degree_ok = match f.map.kind {
+            Some(MapKind::Linear) => map.len() == 2,
+            Some(MapKind::Quadratic) => map.len() == 3,
+            None => map.len() == 2 || map.len() == 3,
+        };
+        if !degree_ok {
             return Err(Error::parse(
                 source,
                 0,
-                "field 'map.coefficients': expected 2 or 3 finite numbers",
+                format!(
+                    "field 'map.coefficients' has {} values; expected 2 (linear) or 3 (quadratic) matching 'map.kind'",
+                    map.len()
+                ),
             ));
         }
-        let fwhm_nm = number(&v, "fwhm_nm", source)?;
+        let fwhm_nm = f.fwhm_nm;
         if fwhm_nm <= 0.0 {
             return Err(Error::parse(
                 source,
@@ -126,30 +131,14 @@ impl LvfGeometry {
                 format!("field 'fwhm_nm' = {fwhm_nm}; expected > 0"),
             ));
         }
-        let fwhm_sigma_nm = v
-            .get("fwhm_sigma_nm")
-            .and_then(|x| x.as_f64())
-            .unwrap_or(0.0);
-        let bands_v = field(&v, "bands", source)?
-            .as_array()
-            .ok_or_else(|| Error::parse(source, 0, "field 'bands': expected an array"))?;
-        let mut bands = Vec::with_capacity(bands_v.len());
-        for (i, b) in bands_v.iter().enumerate() {
-            let f = |k: &str| number(b, k, &format!("{source}: bands[{i}]"));
-            let band = Band {
-                nm: f("nm")?,
-                px: f("px")?,
-                width_px: f("width_px")?,
-                in_roi: b.get("in_roi").and_then(|x| x.as_bool()).unwrap_or(true),
-            };
-            if band.width_px <= 0.0 {
-                return Err(Error::parse(
-                    source,
-                    0,
-                    format!("bands[{i}].width_px = {}; expected > 0", band.width_px),
-                ));
-            }
-            bands.push(band);
+        let fwhm_sigma_nm = f.fwhm_sigma_nm;
+        let bands = f.bands;
+        if let Some((i, b)) = bands.iter().enumerate().find(|(_, b)| b.width_px <= 0.0) {
+            return Err(Error::parse(
+                source,
+                0,
+                format!("bands[{i}].width_px = {}; expected > 0", b.width_px),
+            ));
         }
         if bands.len() < 2 {
             return Err(Error::parse(
@@ -170,7 +159,7 @@ impl LvfGeometry {
         }
         Ok(LvfGeometry {
             source: source.to_string(),
-            axis,
+            axis: f.axis,
             roi: [roi_v[0], roi_v[1], roi_v[2], roi_v[3]],
             map,
             fwhm_nm,
@@ -320,7 +309,7 @@ impl LvfGeometry {
 mod tests {
     use super::*;
 
-    fn geometry() -> LvfGeometry {
+    fn lvf_text() -> String {
         let json = serde_json::json!({
             "schema": "lumifit.lvf/1", "axis": "x", "roi": [0, 0, 1200, 100],
             "map": {"kind": "linear", "coefficients": [380.0, 0.3]},
@@ -330,7 +319,11 @@ mod tests {
                 serde_json::json!({"nm": nm, "px": (nm - 380.0) / 0.3, "width_px": 10.0 / 0.3, "in_roi": true})
             }).collect::<Vec<_>>()
         });
-        LvfGeometry::from_json(json.to_string().as_bytes(), "lvf.json").unwrap()
+        json.to_string()
+    }
+
+    fn geometry() -> LvfGeometry {
+        LvfGeometry::from_json(lvf_text().as_bytes(), "lvf.json").unwrap()
     }
 
     #[test]
@@ -368,5 +361,35 @@ mod tests {
         assert!(e.to_string().contains("lumifit.lvf/1"), "{e}");
         let e = LvfGeometry::from_json(b"[1,", "y.json").unwrap_err();
         assert!(e.to_string().contains("y.json"), "{e}");
+        // typed fields: a wrong type or a missing field is named with its line
+        let mut v: serde_json::Value = serde_json::from_str(&lvf_text()).unwrap();
+        v["axis"] = serde_json::json!("z");
+        let e = LvfGeometry::from_json(
+            serde_json::to_string_pretty(&v).unwrap().as_bytes(),
+            "z.json",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("z.json") && e.contains("line"), "{e}");
+        let mut v: serde_json::Value = serde_json::from_str(&lvf_text()).unwrap();
+        v["bands"][4].as_object_mut().unwrap().remove("width_px");
+        let e = LvfGeometry::from_json(v.to_string().as_bytes(), "w.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("w.json") && e.contains("width_px"), "{e}");
+        let mut v: serde_json::Value = serde_json::from_str(&lvf_text()).unwrap();
+        v["map"]["coefficients"] = serde_json::json!([380.0, 0.3, 1e-6]);
+        let e = LvfGeometry::from_json(v.to_string().as_bytes(), "m.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("map.coefficients"), "{e}");
+        // absent in_roi and fwhm_sigma_nm take their defaults
+        let g = geometry();
+        assert!(g.bands.iter().all(|b| b.in_roi));
+        let mut v: serde_json::Value = serde_json::from_str(&lvf_text()).unwrap();
+        v["bands"][0].as_object_mut().unwrap().remove("in_roi");
+        let g2 = LvfGeometry::from_json(v.to_string().as_bytes(), "lvf.json").unwrap();
+        assert_eq!(g2, g);
+        assert_eq!(g2.fwhm_sigma_nm, 0.0);
     }
 }

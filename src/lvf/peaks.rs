@@ -159,7 +159,7 @@ pub fn calibrate_peaks(
         })
         .collect();
     let mut cal = LvfCalibration {
-        schema: "lumifit.lvf/1",
+        schema: crate::lvf::calibration::LVF_SCHEMA,
         method: "peaks".into(),
         source: profile.source.clone(),
         axis: profile.axis,

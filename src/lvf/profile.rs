@@ -4,7 +4,7 @@ use crate::capture::RgbFrame;
 use crate::error::{Error, Result};
 
 /// Direction of the filter's wavelength gradient in the image.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
     /// Wavelength varies along columns (x).

@@ -23,6 +23,8 @@
 use std::time::Instant;
 
 use crate::error::{Error, Result};
+use crate::fit::search::log_space;
+use crate::fit::{levenberg_marquardt, LmOptions, LmReport, Residuals, Termination};
 
 /// Relative keyframe residual up to which a target counts as reproduced (the 1 %).
 pub const REACHABLE_REL: f64 = 0.01;
@@ -84,6 +86,10 @@ pub struct DesignStage {
     pub relative_residual: Vec<f64>,
     /// Wall time of the stage in s.
     pub time_s: f64,
+    /// Levenberg–Marquardt iterations of the refinement (0 for the grid).
+    pub iterations: usize,
+    /// Why the refinement stopped (`None` for the grid stage).
+    pub termination: Option<Termination>,
 }
 
 /// The design.
@@ -188,6 +194,8 @@ impl Problem<'_> {
             predicted,
             relative_residual,
             time_s,
+            iterations: 0,
+            termination: None,
         }
     }
 }
@@ -349,9 +357,7 @@ pub fn design_from_keyframes(
         .max(span * 1e-4);
     let (lo, hi) = (0.05 / span, 20.0 / dt_min);
     let n = opts.grid_points;
-    let rates: Vec<f64> = (0..n)
-        .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
-        .collect();
+    let rates = log_space(lo, hi, n);
     let e_max: [f64; 3] = [0, 1, 2].map(|c| hist.e.iter().fold(0.0_f64, |m, e| m.max(e[c])));
     let ke_grid: Vec<Vec<f64>> = (0..3)
         .map(|c| {
@@ -383,8 +389,10 @@ pub fn design_from_keyframes(
     let grid = prob.stage(best.1, best.2, grid_time);
     let refined = if opts.refine {
         let start = Instant::now();
-        let (ke, kr) = refine(&prob, best.1, best.2, &e_max, lo);
-        let s = prob.stage(ke, kr, start.elapsed().as_secs_f64());
+        let (ke, kr, rep) = refine(&prob, best.1, best.2, &e_max, lo);
+        let mut s = prob.stage(ke, kr, start.elapsed().as_secs_f64());
+        s.iterations = rep.iterations;
+        s.termination = Some(rep.termination);
         if s.cost <= grid.cost {
             s
         } else {
@@ -429,92 +437,68 @@ pub fn design_from_keyframes(
     })
 }
 
-/// LM on u = ln(rates) of the channels with light, and ln k_r; finite-difference Jacobian.
+/// The refinement as a least-squares problem for [`fit::lm`](crate::fit::lm): parameters
+/// u = ln(k_e) of the channels with light, then ln k_r; residuals the Eq. 7 residuals of
+/// every keyframe and channel (Λ projected out by [`Problem::evaluate`]).
+struct LogRates<'a, 'p> {
+    prob: &'a Problem<'p>,
+    active: Vec<usize>,
+}
+
+impl LogRates<'_, '_> {
+    fn unpack(&self, u: &[f64]) -> ([f64; 3], f64) {
+        let mut ke = [0.0; 3];
+        for (i, &c) in self.active.iter().enumerate() {
+            ke[c] = u[i].exp();
+        }
+        (ke, u[self.active.len()].exp())
+    }
+}
+
+impl Residuals for LogRates<'_, '_> {
+    fn n_residuals(&self) -> usize {
+        3 * self.prob.keys.len()
+    }
+    fn n_params(&self) -> usize {
+        self.active.len() + 1
+    }
+    fn residuals(&self, u: &[f64], out: &mut [f64]) -> bool {
+        let (ke, kr) = self.unpack(u);
+        for (o, v) in out
+            .iter_mut()
+            .zip(self.prob.evaluate(&ke, kr).1.into_iter().flatten())
+        {
+            *o = v;
+        }
+        true
+    }
+}
+
+/// LM on u = ln(rates) of the channels with light, and ln k_r (finite-difference Jacobian,
+/// ln-rates bounded to ±700 so the rates stay finite); returns the rates and the report.
 fn refine(
     prob: &Problem,
     ke0: [f64; 3],
     kr0: f64,
     e_max: &[f64; 3],
     rate_floor: f64,
-) -> ([f64; 3], f64) {
+) -> ([f64; 3], f64, LmReport) {
     let active: Vec<usize> = (0..3).filter(|c| e_max[*c] > 0.0).collect();
-    let np = active.len() + 1;
     let mut u: Vec<f64> = active
         .iter()
         .map(|&c| (ke0[c].max(rate_floor * 1e-3 / e_max[c])).ln())
         .collect();
     u.push(kr0.ln());
-    let unpack = |u: &[f64]| -> ([f64; 3], f64) {
-        let mut ke = [0.0; 3];
-        for (i, &c) in active.iter().enumerate() {
-            ke[c] = u[i].clamp(-700.0, 700.0).exp();
-        }
-        (ke, u[np - 1].clamp(-700.0, 700.0).exp())
+    let np = u.len();
+    let problem = LogRates { prob, active };
+    // steps of at most ±3 in ln-rate (a factor 20): far from the data's time scales the cost
+    // is flat in a rate, and an unlimited step would land on such a plateau
+    let opts = LmOptions {
+        max_step: Some(vec![3.0; np]),
+        ..LmOptions::default().with_bounds(vec![-700.0; np], vec![700.0; np])
     };
-    let resid = |u: &[f64]| -> Vec<f64> {
-        let (ke, kr) = unpack(u);
-        prob.evaluate(&ke, kr).1.into_iter().flatten().collect()
-    };
-    let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let mut r = resid(&u);
-    let mut c = cost(&r);
-    let mut mu = 1e-3;
-    for _ in 0..200 {
-        let h = 1e-6;
-        let mut jac = vec![vec![0.0; np]; r.len()];
-        for p in 0..np {
-            let mut up = u.clone();
-            up[p] += h;
-            let rp = resid(&up);
-            for i in 0..r.len() {
-                jac[i][p] = (rp[i] - r[i]) / h;
-            }
-        }
-        let mut a = vec![vec![0.0; np]; np];
-        let mut g = vec![0.0; np];
-        for i in 0..r.len() {
-            for p in 0..np {
-                g[p] -= jac[i][p] * r[i];
-                for q in 0..np {
-                    a[p][q] += jac[i][p] * jac[i][q];
-                }
-            }
-        }
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut ad = a.clone();
-            for p in 0..np {
-                ad[p][p] += mu * (a[p][p] + 1e-12);
-            }
-            let Some(du) = solve(ad, g.clone()) else {
-                mu *= 10.0;
-                continue;
-            };
-            let trial: Vec<f64> = u
-                .iter()
-                .zip(&du)
-                .map(|(x, d)| x + d.clamp(-3.0, 3.0))
-                .collect();
-            let rt = resid(&trial);
-            let ct = cost(&rt);
-            if ct < c {
-                let rel = (c - ct) / c.max(1e-300);
-                u = trial;
-                r = rt;
-                c = ct;
-                mu = (mu / 3.0).max(1e-12);
-                improved = rel > 1e-12 && c > 1e-30;
-                break;
-            }
-            mu *= 4.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    unpack(&u)
-}
-
-fn solve(a: Vec<Vec<f64>>, b: Vec<f64>) -> Option<Vec<f64>> {
-    crate::math::linalg::solve_dense(a, b)
+    let u0: Vec<f64> = u.iter().map(|v| v.clamp(-700.0, 700.0)).collect();
+    let rep = levenberg_marquardt(&problem, &u0, &opts);
+    let (ke, kr) = problem.unpack(&rep.theta);
+    (ke, kr, rep)
 }

@@ -14,8 +14,8 @@
 //!
 //! `∂r/∂a = k_r (1 − E)/λ² + (a/λ) T E`,  `∂r/∂k_e = s_j ∂r/∂a`.
 //!
-//! Bands are fitted independently by a damped Gauss–Newton (Levenberg–Marquardt) iteration on
-//! k_e ≥ 0 (projected), started from a log-grid. With several states, k_e is either shared by
+//! Bands are fitted independently by the crate's Levenberg–Marquardt ([`fit::lm`](crate::fit::lm))
+//! with the bound k_e ≥ 0, started from a log-grid ([`fit::search`](crate::fit::search)). With several states, k_e is either shared by
 //! the states or fitted per state; `Auto` takes the per-state model only when BIC prefers it
 //! and every per-state rate is determined to better than 50 % (state-specific excitation is
 //! only identifiable when the charging curve shows it).
@@ -31,6 +31,9 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::error::{Error, Result};
+use crate::fit::search::log_grid_min;
+use crate::fit::stats::{self, bic};
+use crate::fit::{levenberg_marquardt, LmOptions, Residuals};
 
 use super::material::Material;
 use super::simulate::{final_state, BandCamera, Segment};
@@ -242,93 +245,66 @@ impl Problem<'_> {
     }
 }
 
-fn solve(a: Vec<Vec<f64>>, b: Vec<f64>) -> Option<Vec<f64>> {
-    crate::math::linalg::solve_dense(a, b)
+/// The fit of `n_params` rates (1 shared, or one per state) as a least-squares problem for
+/// [`fit::lm`](crate::fit::lm), with the analytic Jacobian of [`Problem::eval`].
+struct Rates<'a, 'm> {
+    prob: &'a Problem<'m>,
+    n_params: usize,
 }
 
-fn normal_equations(res: &[f64], jac: &[Vec<f64>], p: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
-    let mut a = vec![vec![0.0; p]; p];
-    let mut g = vec![0.0; p];
-    for (r, row) in res.iter().zip(jac) {
-        for i in 0..p {
-            g[i] -= row[i] * r;
-            for j in 0..p {
-                a[i][j] += row[i] * row[j];
+impl Residuals for Rates<'_, '_> {
+    fn n_residuals(&self) -> usize {
+        self.prob.t.len() * 3
+    }
+    fn n_params(&self) -> usize {
+        self.n_params
+    }
+    fn residuals(&self, theta: &[f64], out: &mut [f64]) -> bool {
+        out.copy_from_slice(&self.prob.eval(theta).0);
+        true
+    }
+    fn jacobian(&self, theta: &[f64], jac: &mut [f64]) -> bool {
+        let (res, rows) = self.prob.eval(theta);
+        let m = res.len();
+        for (i, row) in rows.iter().enumerate() {
+            for (q, v) in row.iter().enumerate() {
+                jac[q * m + i] = *v;
             }
         }
+        true
     }
-    (a, g)
 }
 
-/// Projected LM from `p0`; returns (p, iterations, converged).
-fn levenberg_marquardt(prob: &Problem, p0: Vec<f64>, max_it: usize) -> (Vec<f64>, usize, bool) {
+/// LM on k_e ≥ 0 from `p0`; returns (p, iterations, converged).
+fn fit_rates(prob: &Problem, p0: Vec<f64>, max_iter: usize) -> (Vec<f64>, usize, bool) {
     let np = p0.len();
-    let mut p = p0;
-    let mut mu = 1e-3;
-    let (mut res, mut jac) = prob.eval(&p);
-    let mut chi2: f64 = res.iter().map(|r| r * r).sum();
-    for it in 1..=max_it {
-        let (a, g) = normal_equations(&res, &jac, np);
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut ad = a.clone();
-            for i in 0..np {
-                ad[i][i] += mu * a[i][i].max(1e-300);
-            }
-            let Some(dp) = solve(ad, g.clone()) else {
-                mu *= 10.0;
-                continue;
-            };
-            let trial: Vec<f64> = p.iter().zip(&dp).map(|(x, d)| (x + d).max(0.0)).collect();
-            let c2 = prob.chi2(&trial);
-            if c2 <= chi2 {
-                let step: f64 = trial
-                    .iter()
-                    .zip(&p)
-                    .map(|(t, x)| ((t - x) / x.abs().max(1e-12)).abs())
-                    .fold(0.0, f64::max);
-                let small = step < 1e-10 || (chi2 - c2) <= 1e-14 * chi2;
-                p = trial;
-                chi2 = c2;
-                (res, jac) = prob.eval(&p);
-                mu = (mu / 3.0).max(1e-12);
-                improved = true;
-                if small {
-                    return (p, it, true);
-                }
-                break;
-            }
-            mu *= 4.0;
-        }
-        if !improved {
-            return (p, it, true);
-        }
-    }
-    (p, max_it, false)
+    let opts = LmOptions {
+        max_iter,
+        lower: Some(vec![0.0; np]),
+        ..LmOptions::default()
+    };
+    let rep = levenberg_marquardt(&Rates { prob, n_params: np }, &p0, &opts);
+    (rep.theta, rep.iterations, rep.termination.converged())
 }
 
-/// Standard deviations from (JᵀJ)⁻¹ scaled by the reduced χ² when `scale`.
+/// Standard deviations from (JᵀJ)⁻¹ scaled by the reduced χ² when `scale` (σ unknown), else
+/// unscaled (residuals already divided by known σ); infinite when J is rank deficient.
 fn sigmas(prob: &Problem, p: &[f64], scale: bool) -> Vec<f64> {
     let np = p.len();
-    let (res, jac) = prob.eval(p);
-    let (a, _) = normal_equations(&res, &jac, np);
-    let n = res.len();
-    let chi2: f64 = res.iter().map(|r| r * r).sum();
+    let r = Rates { prob, n_params: np };
+    let n = r.n_residuals();
+    let mut jac = vec![0.0; n * np];
+    r.jacobian(p, &mut jac);
+    let chi2 = prob.chi2(p);
     let s2 = if scale && n > np {
         chi2 / (n - np) as f64
     } else {
         1.0
     };
-    (0..np)
-        .map(|i| {
-            let mut e = vec![0.0; np];
-            e[i] = 1.0;
-            match solve(a.clone(), e) {
-                Some(col) => (col[i] * s2).max(0.0).sqrt(),
-                None => f64::INFINITY,
-            }
-        })
-        .collect()
+    match stats::covariance_scaled(&jac, n, np, s2) {
+        Some(c) => (0..np).map(|i| c[i * np + i].max(0.0).sqrt()).collect(),
+        None => vec![f64::INFINITY; np],
+    }
 }
 
 /// The RGB the camera reads after charging a dark sample for `charge_s` with irradiance
@@ -574,18 +550,12 @@ fn fit_band(
         w,
     };
     // Log-grid start for the shared rate: a = k s from 1e-6 to 1e3 s⁻¹.
-    let mut best = (f64::INFINITY, 0.0);
-    for g in 0..=90 {
-        let k = 10f64.powf(-6.0 + g as f64 / 10.0) / s_j;
-        let c = prob.chi2(&[k]);
-        if c < best.0 {
-            best = (c, k);
-        }
-    }
+    let grid = log_grid_min(1e-6, 1e3, 91, |a| prob.chi2(&[a / s_j]));
+    let mut best = (grid.value(), grid.x() / s_j);
     if prob.chi2(&[0.0]) <= best.0 {
         best = (prob.chi2(&[0.0]), 0.0);
     }
-    let (p1, it1, conv1) = levenberg_marquardt(&prob, vec![best.1], opts.max_iterations);
+    let (p1, it1, conv1) = fit_rates(&prob, vec![best.1], opts.max_iterations);
     let chi1 = prob.chi2(&p1);
     let sig1 = sigmas(&prob, &p1, !known_sigma);
     let n = (samples.len() * 3) as f64;
@@ -596,11 +566,11 @@ fn fit_band(
     } else if opts.sharing == StateSharing::Shared {
         reason = "shared by request".to_string();
     } else {
-        let (pn, itn, convn) = levenberg_marquardt(&prob, vec![p1[0]; ns], opts.max_iterations);
+        let (pn, itn, convn) = fit_rates(&prob, vec![p1[0]; ns], opts.max_iterations);
         let chin = prob.chi2(&pn);
         let sign = sigmas(&prob, &pn, !known_sigma);
-        let bic = |chi: f64, p: usize| n * (chi.max(1e-300) / n).ln() + p as f64 * n.ln();
-        let (b1, bn) = (bic(chi1, 1), bic(chin, ns));
+        let n_obs = samples.len() * 3;
+        let (b1, bn) = (bic(chi1, n_obs, 1), bic(chin, n_obs, ns));
         let precise = pn
             .iter()
             .zip(&sign)

@@ -1,0 +1,284 @@
+//! A curve prepared for fitting (time base, weights, stacked channels) and the n-state fit
+//! from one start: the separable fit alternated with the exact spectrum update.
+
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use super::*;
+
+/// Internal result for n states (τ = t − t₀ time base, unit-norm spectrum).
+#[derive(Debug, Clone)]
+pub(super) struct RawFit {
+    pub(super) theta: Vec<f64>,
+    /// Amplitudes per state (shared) at τ = 0.
+    pub(super) a: Vec<f64>,
+    /// Per state × channel amplitudes at τ = 0.
+    pub(super) c: Vec<Vec<f64>>,
+    /// Unit-norm spectrum (shared model).
+    pub(super) s: Vec<f64>,
+    pub(super) background: Vec<f64>,
+    pub(super) rss: f64,
+    pub(super) termination: Termination,
+}
+
+pub(super) struct Prepared<'c> {
+    pub(super) curve: &'c DecayCurve,
+    pub(super) tau: Vec<f64>,
+    pub(super) t0: f64,
+    pub(super) sqrt_w: Option<Vec<f64>>,
+    /// Channels stacked, m × n_ch.
+    pub(super) y: Vec<f64>,
+    pub(super) n_ch: usize,
+    pub(super) m: usize,
+}
+
+impl<'c> Prepared<'c> {
+    pub(super) fn new(curve: &'c DecayCurve) -> Self {
+        let t0 = curve.t_s[0];
+        let sqrt_w = curve
+            .sigma
+            .as_ref()
+            .map(|s| s.iter().map(|v| 1.0 / v).collect());
+        Prepared {
+            curve,
+            tau: curve.t_s.iter().map(|t| t - t0).collect(),
+            t0,
+            sqrt_w,
+            y: curve.channels.concat(),
+            n_ch: curve.channels.len(),
+            m: curve.n_rows(),
+        }
+    }
+
+    pub(super) fn w(&self, i: usize) -> f64 {
+        self.sqrt_w.as_ref().map_or(1.0, |w| w[i] * w[i])
+    }
+
+    /// Leading right singular vector of W^{1/2} Y (non-negative, unit norm).
+    pub(super) fn initial_spectrum(&self) -> Vec<f64> {
+        let (m, nc) = (self.m, self.n_ch);
+        let mut g = vec![0.0; nc * nc];
+        for a in 0..nc {
+            for b in 0..nc {
+                g[a * nc + b] = (0..m)
+                    .map(|i| self.w(i) * self.y[a * m + i] * self.y[b * m + i])
+                    .sum();
+            }
+        }
+        let mut v: Vec<f64> = (0..nc)
+            .map(|c| (0..m).map(|i| self.y[c * m + i].abs()).sum::<f64>() + 1e-300)
+            .collect();
+        for _ in 0..100 {
+            let mut nv: Vec<f64> = (0..nc)
+                .map(|a| (0..nc).map(|b| g[a * nc + b] * v[b]).sum())
+                .collect();
+            let n = nv.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if n == 0.0 || !n.is_finite() {
+                break;
+            }
+            nv.iter_mut().for_each(|x| *x /= n);
+            let d: f64 = nv.iter().zip(&v).map(|(a, b)| (a - b).abs()).sum();
+            v = nv;
+            if d < 1e-15 {
+                break;
+            }
+        }
+        if v.iter().sum::<f64>() < 0.0 {
+            v.iter_mut().for_each(|x| *x = -*x);
+        }
+        v.iter_mut().for_each(|x| *x = x.max(0.0));
+        let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if n > 0.0 {
+            v.iter_mut().for_each(|x| *x /= n);
+            v
+        } else {
+            vec![1.0 / (nc as f64).sqrt(); nc]
+        }
+    }
+
+    /// e^{−e^{θ_j} τ_i} for every state j and sample i (state after state).
+    pub(super) fn exp_table(&self, theta: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        let step = uniform_step(&self.tau);
+        for th in theta {
+            let k = th.exp();
+            match step {
+                Some(dt) => {
+                    let r = (-k * dt).exp();
+                    let mut e = 1.0;
+                    for _ in 0..self.m {
+                        out.push(e);
+                        e *= r;
+                    }
+                }
+                None => out.extend(self.tau.iter().map(|t| (-k * t).exp())),
+            }
+        }
+    }
+
+    /// Weighted RSS of a fit, given its [`Self::exp_table`].
+    pub(super) fn rss_of(&self, raw: &RawFit, ex: &[f64]) -> f64 {
+        let (m, nc) = (self.m, self.n_ch);
+        let mut rss = 0.0;
+        for c in 0..nc {
+            for i in 0..m {
+                let mut f = raw.background.get(c).copied().unwrap_or(0.0);
+                for j in 0..raw.theta.len() {
+                    f += raw.c[j][c] * ex[j * m + i];
+                }
+                let r = self.y[c * m + i] - f;
+                rss += self.w(i) * r * r;
+            }
+        }
+        rss
+    }
+
+    /// Fits n states from one start.
+    pub(super) fn fit_from(
+        &self,
+        n: usize,
+        theta0: &[f64],
+        opts: &DecayFitOptions,
+        s0: &[f64],
+    ) -> RawFit {
+        let basis = ExpBasis {
+            tau: &self.tau,
+            step: uniform_step(&self.tau),
+            n_exp: n,
+            background: opts.background,
+        };
+        let (m, nc) = (self.m, self.n_ch);
+        let ncols = n + usize::from(opts.background);
+        if nc == 1 || opts.amplitudes == AmplitudeModel::PerChannel {
+            let fit = solve_separable(
+                &basis,
+                SeparableData {
+                    y: &self.y,
+                    n_rhs: nc,
+                    sqrt_w: self.sqrt_w.as_deref(),
+                },
+                theta0,
+                &opts.solver,
+            );
+            let c: Vec<Vec<f64>> = (0..n)
+                .map(|j| (0..nc).map(|r| fit.coeffs[r * ncols + j]).collect())
+                .collect();
+            let background = if opts.background {
+                (0..nc).map(|r| fit.coeffs[r * ncols + n]).collect()
+            } else {
+                Vec::new()
+            };
+            let (a, s) = if nc == 1 {
+                (c.iter().map(|v| v[0]).collect(), vec![1.0])
+            } else {
+                (
+                    c.iter()
+                        .map(|v| v.iter().fold(0.0_f64, |x, y| x.max(*y)))
+                        .collect(),
+                    Vec::new(),
+                )
+            };
+            return RawFit {
+                theta: fit.theta,
+                a,
+                c,
+                s,
+                background,
+                rss: fit.rss,
+                termination: fit.termination,
+            };
+        }
+        // Shared spectrum: alternate the separable fit of Y s with the update of s.
+        let mut s = s0.to_vec();
+        let mut theta = theta0.to_vec();
+        let mut ys = vec![0.0; m];
+        let mut raw = None;
+        let mut ex = Vec::with_capacity(n * m);
+        let ybar: Vec<f64> = {
+            let wsum: f64 = (0..m).map(|i| self.w(i)).sum();
+            (0..nc)
+                .map(|c| (0..m).map(|i| self.w(i) * self.y[c * m + i]).sum::<f64>() / wsum)
+                .collect()
+        };
+        for _ in 0..30 {
+            for (i, v) in ys.iter_mut().enumerate() {
+                *v = (0..nc).map(|c| s[c] * self.y[c * m + i]).sum();
+            }
+            let fit = solve_separable(
+                &basis,
+                SeparableData {
+                    y: &ys,
+                    n_rhs: 1,
+                    sqrt_w: self.sqrt_w.as_deref(),
+                },
+                &theta,
+                &opts.solver,
+            );
+            theta.clone_from(&fit.theta);
+            let a: Vec<f64> = fit.coeffs[..n].to_vec();
+            let background: Vec<f64> = if opts.background {
+                let beta = fit.coeffs[n];
+                let proj: f64 = ybar.iter().zip(&s).map(|(y, s)| y * s).sum();
+                (0..nc)
+                    .map(|c| beta * s[c] + ybar[c] - proj * s[c])
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            // f(τ) = Σ a_j e^{−k_j τ}; s ← (Y − 1bᵀ)ᵀ W f / fᵀ W f
+            self.exp_table(&theta, &mut ex);
+            let f: Vec<f64> = (0..m)
+                .map(|i| (0..n).map(|j| a[j] * ex[j * m + i]).sum())
+                .collect();
+            let ff: f64 = (0..m).map(|i| self.w(i) * f[i] * f[i]).sum();
+            let mut done = true;
+            let mut new_s = s.clone();
+            let mut scale = 1.0;
+            if ff > 0.0 {
+                for (c, ns) in new_s.iter_mut().enumerate() {
+                    let b = background.get(c).copied().unwrap_or(0.0);
+                    *ns = ((0..m)
+                        .map(|i| self.w(i) * (self.y[c * m + i] - b) * f[i])
+                        .sum::<f64>()
+                        / ff)
+                        .max(0.0);
+                }
+                let norm = new_s.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if norm > 0.0 {
+                    new_s.iter_mut().for_each(|x| *x /= norm);
+                    scale = norm;
+                    let d: f64 = new_s.iter().zip(&s).map(|(a, b)| (a - b).abs()).sum();
+                    done = d < 1e-11;
+                }
+            }
+            let a_scaled: Vec<f64> = a.iter().map(|v| v * scale).collect();
+            let c = a_scaled
+                .iter()
+                .map(|aj| new_s.iter().map(|sc| aj * sc).collect())
+                .collect();
+            let mut r = RawFit {
+                theta: theta.clone(),
+                a: a_scaled,
+                c,
+                s: new_s.clone(),
+                background,
+                rss: 0.0,
+                termination: fit.termination,
+            };
+            r.rss = self.rss_of(&r, &ex);
+            raw = Some(r);
+            s = new_s;
+            if done {
+                break;
+            }
+        }
+        raw.unwrap_or(RawFit {
+            theta,
+            a: vec![0.0; n],
+            c: vec![vec![0.0; nc]; n],
+            s,
+            background: Vec::new(),
+            rss: f64::INFINITY,
+            termination: Termination::NonFinite,
+        })
+    }
+}

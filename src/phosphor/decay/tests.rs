@@ -1,0 +1,101 @@
+use super::*;
+
+/// Noise-free sums of exponentials: Prony's estimate is exact up to rounding.
+const PRONY_EXACT: f64 = 1e-6;
+
+fn curve(rates: &[f64], background: f64) -> DecayCurve {
+    let t: Vec<f64> = (0..37).map(|i| 10.0 + 5.0 * i as f64).collect();
+    let ch = (0..3)
+        .map(|c| {
+            t.iter()
+                .map(|ti| {
+                    rates
+                        .iter()
+                        .enumerate()
+                        .map(|(j, k)| (1.0 + j as f64 + 0.3 * c as f64) * (-k * ti).exp())
+                        .sum::<f64>()
+                        + background
+                })
+                .collect()
+        })
+        .collect();
+    DecayCurve::new(t, ch, None).unwrap()
+}
+
+#[test]
+fn prony_start_recovers_the_rates_of_noise_free_sums_of_exponentials() {
+    for (rates, bg) in [
+        (&[0.2, 0.03][..], 0.0),
+        (&[0.2, 0.03][..], 0.05),
+        (&[0.5, 0.1, 0.02][..], 0.0),
+    ] {
+        let c = curve(rates, bg);
+        let prep = Prepared::new(&c);
+        let theta = prep.prony_start(rates.len(), bg != 0.0).unwrap();
+        for (th, k) in theta.iter().zip(rates) {
+            assert!(
+                (th.exp() / k - 1.0).abs() < PRONY_EXACT,
+                "{theta:?} vs {rates:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn prony_start_declines_growth_and_complex_roots() {
+    // a rising curve: the root is above 1
+    let t: Vec<f64> = (0..20).map(|i| i as f64).collect();
+    let rising = DecayCurve::new(
+        t.clone(),
+        vec![t.iter().map(|x| (0.05 * x).exp()).collect()],
+        None,
+    )
+    .unwrap();
+    assert!(Prepared::new(&rising).prony_start(1, false).is_none());
+    // a damped oscillation, e^{(−0.1 ± 1.3i) t} / 2: complex roots
+    let osc = DecayCurve::new(
+        t.clone(),
+        vec![t
+            .iter()
+            .map(|x| (-0.1 * x).exp() * (1.3 * x).cos())
+            .collect()],
+        None,
+    )
+    .unwrap();
+    assert!(Prepared::new(&osc).prony_start(2, false).is_none());
+}
+
+#[test]
+fn cubic_roots_are_the_three_real_roots() {
+    // (z − 0.9)(z − 0.5)(z − 0.1) = z³ − 1.5 z² + 0.59 z − 0.045
+    let mut r = real_roots(&[1.5, -0.59, 0.045]).unwrap();
+    r.sort_by(f64::total_cmp);
+    for (got, want) in r.iter().zip([0.1, 0.5, 0.9]) {
+        assert!((got - want).abs() < 1e-12, "{r:?}");
+    }
+    // z³ − z² + z − 1 = (z − 1)(z² + 1): two complex roots
+    assert!(real_roots(&[1.0, -1.0, 1.0]).is_none());
+}
+
+#[test]
+fn fixed_two_state_fit_matches_the_fit_through_the_nested_one_state_seed() {
+    let c = curve(&[0.2, 0.03], 0.0);
+    let opts = DecayFitOptions {
+        states: StatesChoice::Fixed(2),
+        collapse: false,
+        ..DecayFitOptions::default()
+    };
+    let fast = fit_decay(&c, &opts).unwrap();
+    // the same minimum reached the long way: the one-state fit, then its nested start
+    let prep = Prepared::new(&c);
+    let s0 = prep.initial_spectrum();
+    let one = prep.fit_n(1, None, false, &opts, &s0);
+    let mut st = one.theta.clone();
+    st.push(one.theta[0] - 1.5);
+    let slow = prep.fit_from(2, &st, &opts, &s0);
+    let mut k: Vec<f64> = slow.theta.iter().map(|t| t.exp()).collect();
+    k.sort_by(|a, b| b.total_cmp(a));
+    for (s, k) in fast.states.iter().zip(&k) {
+        assert!((s.k_per_s / k - 1.0).abs() < 1e-8, "{} vs {k}", s.k_per_s);
+    }
+}
