@@ -23,6 +23,7 @@ pub mod limits;
 pub mod lvf;
 pub mod math;
 pub mod phosphor;
+pub mod pipeline;
 pub mod plot;
 pub mod preset;
 pub mod recovery;

@@ -18,6 +18,7 @@ fn layer(module: &str) -> Option<f64> {
         }
         "io" => 3.0,
         "preset" | "plot" => 3.1,
+        "pipeline" => 3.2,
         _ => return None,
     })
 }

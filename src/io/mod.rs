@@ -14,6 +14,7 @@ pub mod filters;
 pub mod image;
 pub mod maps;
 pub mod output;
+pub mod phos_formats;
 pub mod raw;
 pub mod series;
 pub mod spectrum_csv;

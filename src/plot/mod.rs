@@ -44,8 +44,8 @@ pub(crate) use text::{draw_text, fit_text, text_width, TextSpec};
 pub use colorchecker::{colorchecker_chart, SwatchPatch};
 pub use fluor::{fluor_chart, FluorChart};
 pub use lvf::lvf_chart;
-pub use phosphor::{decay_chart, integrator_chart};
-pub use phosphor_excitation::excitation_chart;
+pub use phosphor::{decay_chart, decay_chart_png, integrator_chart, integrator_chart_png};
+pub use phosphor_excitation::{excitation_chart, excitation_chart_png};
 pub use spectra::spectra_chart;
 
 /// Font family name under which the embedded DejaVu Sans is registered.

@@ -26,7 +26,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    draw_err, draw_text, fit_text, needs_halo, render_png, spectral_axes, text_width, AxesSpec,
+    draw_err, draw_text, fit_text, needs_halo, render_png_bytes, spectral_axes, text_width, AxesSpec,
     TextSpec, INK, MUTED_INK,
 };
 use crate::error::{Error, Result};
@@ -112,6 +112,11 @@ pub struct DesignChart<'a> {
 /// camera values do not fit together or nothing finite is left to draw; [`Error::Io`] when the
 /// file cannot be written (nothing is left behind).
 pub fn simulate_chart(path: &Path, c: &SimulateChart<'_>) -> Result<()> {
+    crate::io::atomic_write(path, &simulate_chart_png(c)?)
+}
+
+/// The chart of [`simulate_chart`] as PNG bytes (nothing written).
+pub fn simulate_chart_png(c: &SimulateChart<'_>) -> Result<Vec<u8>> {
     let sim = c.sim;
     let n = sim.t_s.len();
     let nb = c.material.bands.len();
@@ -240,7 +245,7 @@ pub fn simulate_chart(path: &Path, c: &SimulateChart<'_>) -> Result<()> {
     let x_label = format!("time ({unit})");
     let x_range = (0.0, t_end / unit_s);
 
-    render_png(path, SIMULATE_SIZE_PX, |root| {
+    render_png_bytes(SIMULATE_SIZE_PX, |root| {
         draw_title(&root, &title, &subtitle)?;
         let (_, body) = root.split_vertically(TITLE_H);
         let (w_body, h_body) = body.dim_in_pixel();
@@ -319,6 +324,11 @@ pub fn simulate_chart(path: &Path, c: &SimulateChart<'_>) -> Result<()> {
 /// design or the history is invalid; [`Error::Io`] when the file cannot be written (nothing is
 /// left behind).
 pub fn design_chart(path: &Path, c: &DesignChart<'_>) -> Result<()> {
+    crate::io::atomic_write(path, &design_chart_png(c)?)
+}
+
+/// The chart of [`design_chart`] as PNG bytes (nothing written).
+pub fn design_chart_png(c: &DesignChart<'_>) -> Result<Vec<u8>> {
     let hist = c.history;
     let d = c.design;
     if c.keyframes.is_empty() {
@@ -471,7 +481,7 @@ pub fn design_chart(path: &Path, c: &DesignChart<'_>) -> Result<()> {
             .collect()
     };
 
-    render_png(path, DESIGN_SIZE_PX, |root| {
+    render_png_bytes(DESIGN_SIZE_PX, |root| {
         draw_title(&root, &title, &subtitle)?;
         let (_, body) = root.split_vertically(TITLE_H);
         let (w_body, h_body) = body.dim_in_pixel();

@@ -28,6 +28,7 @@
 //! file is left untouched.
 
 mod file;
+pub mod phosphor;
 mod provenance;
 mod types;
 mod validate;
