@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 fn layer(module: &str) -> Option<f64> {
     Some(match module {
         "error" => 0.0,
-        "math" | "table" => 0.1,
+        "math" | "table" | "limits" => 0.1,
         "calib" => 0.2,
         "spectrum" | "fit" | "capture" => 1.0,
         "colorimetry" => 1.1,

@@ -27,7 +27,8 @@ use crate::error::{Error, Result};
 use crate::io::read_input;
 use crate::phosphor::design::{IrradianceHistory, Keyframe};
 use crate::phosphor::excitation::{band_means_exact, unit_length, ChargingSample};
-use crate::phosphor::{BandSet, DecayCurve, Segment, Simulation};
+use crate::phosphor::{BandCamera, BandSet, DecayCurve, Segment, Simulation};
+use crate::spectrum::MultiSpectrum;
 use crate::table::{as_text, parse_numeric_csv, NumericTable};
 
 /// Strictly increasing times, positive `std`/`weight` columns; errors name the line.
@@ -303,8 +304,7 @@ impl BatchCsv {
                         ),
                     ));
                 }
-                if h.len() < 5 || h[..5] != base || (h.len() == 6 && h[5] != "std") || h.len() > 6
-                {
+                if h.len() < 5 || h[..5] != base || (h.len() == 6 && h[5] != "std") || h.len() > 6 {
                     return Err(Error::parse(
                         source,
                         line,
@@ -988,6 +988,19 @@ pub fn box_camera_csv() -> String {
     cam
 }
 
+/// The camera of a material's bands from sensitivities `wavelength_nm,r,g,b` (bytes of the file
+/// `source`); errors name the file.
+pub fn parse_band_camera(bytes: &[u8], source: &str, bands: &BandSet) -> Result<BandCamera> {
+    let ms = MultiSpectrum::from_table(&parse_numeric_csv(bytes, source)?)?;
+    BandCamera::for_bands(bands, Some(&ms)).map_err(|e| prefix(source, e))
+}
+
+/// Reads camera sensitivities `wavelength_nm,r,g,b` for a material's bands.
+pub fn read_band_camera(path: &Path, bands: &BandSet) -> Result<BandCamera> {
+    let (bytes, source) = read_input(path)?;
+    parse_band_camera(&bytes, &source, bands)
+}
+
 /// Times, RGB rows and line numbers of a `time_s,a,b,c` CSV.
 struct RgbRows {
     t_s: Vec<f64>,
@@ -1110,8 +1123,20 @@ impl KeyframesCsv {
         history: Option<(&IrradianceHistory, &str)>,
     ) -> Result<Self> {
         let r = parse_rgb_rows(bytes, source, TARGET_COLUMNS, "keyframe targets")?;
-        for i in 1..r.t_s.len() {
-            if r.t_s[i] < r.t_s[i - 1] {
+        let start = history.map(|(h, hs)| (h.t_s.first().copied().unwrap_or(0.0), hs));
+        for i in 0..r.t_s.len() {
+            if let Some((start, hs)) = start.filter(|(s, _)| r.t_s[i] < *s) {
+                return Err(Error::parse(
+                    source,
+                    r.lines[i],
+                    format!(
+                        "keyframe at {} s is before the history starts ({} s in {}); expected \
+                         keyframes within the history",
+                        r.t_s[i], start, hs
+                    ),
+                ));
+            }
+            if i > 0 && r.t_s[i] < r.t_s[i - 1] {
                 return Err(Error::parse(
                     source,
                     r.lines[i],
@@ -1122,22 +1147,6 @@ impl KeyframesCsv {
                         r.t_s[i - 1]
                     ),
                 ));
-            }
-        }
-        if let Some((h, hs)) = history {
-            let start = h.t_s.first().copied().unwrap_or(0.0);
-            for i in 0..r.t_s.len() {
-                if r.t_s[i] < start {
-                    return Err(Error::parse(
-                        source,
-                        r.lines[i],
-                        format!(
-                            "keyframe at {} s is before the history starts ({} s in {}); expected \
-                             keyframes within the history",
-                            r.t_s[i], start, hs
-                        ),
-                    ));
-                }
             }
         }
         Ok(Self {
@@ -1183,7 +1192,11 @@ mod tests {
             let c = CurveCsv {
                 time_s: vec![0.0, 0.5, 1.25],
                 names: vec!["r".into(), "g".into(), "b".into()],
-                channels: vec![vec![3.0, 2.0, 1.0], vec![0.1, 0.05, 1e-7], vec![7.0, 6.5, 6.0]],
+                channels: vec![
+                    vec![3.0, 2.0, 1.0],
+                    vec![0.1, 0.05, 1e-7],
+                    vec![7.0, 6.5, 6.0],
+                ],
                 sigma: Some((kind, vec![0.25, 0.125, 1.0 / 3.0])),
             };
             let back = CurveCsv::parse(c.to_csv().as_bytes(), "c.csv").unwrap();
@@ -1241,7 +1254,10 @@ mod tests {
         let e = BatchCsv::parse(b"# c\nid,time_s,r,r,b\nx,0,1,2,3\n", "b.csv")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("b.csv: line 2") && e.contains("'r' appears twice"), "{e}");
+        assert!(
+            e.contains("b.csv: line 2") && e.contains("'r' appears twice"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -1347,7 +1363,10 @@ mod tests {
             },
         };
         let text = format!("{BOM}{}", h.to_csv());
-        assert_eq!(DesignHistoryCsv::parse(text.as_bytes(), "h.csv").unwrap(), h);
+        assert_eq!(
+            DesignHistoryCsv::parse(text.as_bytes(), "h.csv").unwrap(),
+            h
+        );
         let k = KeyframesCsv {
             keyframes: vec![
                 Keyframe {
@@ -1376,7 +1395,10 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(e.contains("k.csv: line 4") && e.contains("decreasing"), "{e}");
+        assert!(
+            e.contains("k.csv: line 4") && e.contains("decreasing"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -1386,6 +1408,9 @@ mod tests {
             t_s: vec![0.0, 1.0],
             rows: vec![vec![0.5, 0.25], vec![0.125, 1e-300]],
         };
-        assert_eq!(SimulationCsv::parse(s.to_csv().as_bytes(), "s.csv").unwrap(), s);
+        assert_eq!(
+            SimulationCsv::parse(s.to_csv().as_bytes(), "s.csv").unwrap(),
+            s
+        );
     }
 }

@@ -414,6 +414,16 @@ pub fn load_series(
     Ok(LoadedSeries { series, warnings })
 }
 
+/// A series manifest `file,time_s,exposure_s,iso,f_number` (what [`parse_manifest`] reads):
+/// rows of (file, time in s, exposure in s, ISO, f-number).
+pub fn manifest_csv(rows: &[(String, f64, f64, f64, f64)]) -> String {
+    let mut csv = String::from("file,time_s,exposure_s,iso,f_number\n");
+    for (f, t, e, iso, n) in rows {
+        csv.push_str(&format!("{f},{t},{e},{iso},{n}\n"));
+    }
+    csv
+}
+
 // ---------------------------------------------------------------------------------------------
 // Charging series (`phos fit-excitation --series`): the same manifest reader, other columns.
 // ---------------------------------------------------------------------------------------------
@@ -865,14 +875,29 @@ mod charging_tests {
         assert_eq!((rows[0].line, rows[0].band, rows[0].charge_s), (3, 1, 16.0));
         assert_eq!(rows[0].exposure_s, None);
         assert_eq!(rows[1].exposure_s, Some(0.5));
-        let err = parse_charging_manifest(b"image,band,charge_s\na.tif,4,1\n", "m.csv", d.path(), 3)
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains("m.csv: line 2") && err.contains("band 4"), "{err}");
+        let err =
+            parse_charging_manifest(b"image,band,charge_s\na.tif,4,1\n", "m.csv", d.path(), 3)
+                .unwrap_err()
+                .to_string();
+        assert!(
+            err.contains("m.csv: line 2") && err.contains("band 4"),
+            "{err}"
+        );
         let err = parse_charging_manifest(b"image,band\na.tif,1\n", "m.csv", d.path(), 3)
             .unwrap_err()
             .to_string();
         assert!(err.contains("charge_s"), "{err}");
+    }
+
+    #[test]
+    fn a_written_series_manifest_reads_back() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("f.tif"), b"x").unwrap();
+        let text = manifest_csv(&[("f.tif".into(), 2.5, 0.5, 100.0, 1.0)]);
+        let rows = parse_manifest(text.as_bytes(), "m.csv", d.path()).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].time_s, 2.5);
+        assert_eq!(rows[0].exposure_s, Some(0.5));
     }
 
     #[test]
@@ -882,7 +907,13 @@ mod charging_tests {
         let text = charging_manifest_csv("synthetic", &[("c.tif".into(), 1, 8.0, 0.25)]);
         let rows = parse_charging_manifest(text.as_bytes(), "m.csv", d.path(), 2).unwrap();
         assert_eq!(
-            (rows[0].band, rows[0].charge_s, rows[0].exposure_s, rows[0].iso, rows[0].f_number),
+            (
+                rows[0].band,
+                rows[0].charge_s,
+                rows[0].exposure_s,
+                rows[0].iso,
+                rows[0].f_number
+            ),
             (1, 8.0, Some(0.25), Some(100.0), Some(1.0))
         );
         let rois = BandRois::same_for_all(

@@ -5,6 +5,7 @@
 //!   (used by `phos fit-decay --spectrum` and `phos fit-excitation`);
 //! - [`decay_preset`]: a decay fit turned into the bands, states and record of a preset;
 //! - [`roi_curve`]: the mean curve of an ROI of a photo series, with σ;
+//! - [`fit_batch`]: a batch of curves fitted in parallel into result rows;
 //! - [`pixel_map_files`]: the per-pixel maps as TIFF files and their summary;
 //! - [`compare_integrators`]: error against run time of the integrators of Eq. 1;
 //! - [`excitation`]: the excitation fit with Λ checked against the preset's own decay fit;
@@ -18,6 +19,7 @@ use crate::capture::{PhotoSeries, Roi};
 use crate::error::{Error, Result};
 use crate::io::image::encode_tiff16;
 use crate::io::maps::{rgb_map_tiff, scalar_map_tiff};
+use crate::io::phos_formats::{BatchCsv, BatchResultRow, CurveCsv, SigmaColumn};
 use crate::io::series::{charging_manifest_csv, BandRoi, BandRois};
 use crate::phosphor::design::{Design, DesignStage, Keyframe};
 use crate::phosphor::excitation::{
@@ -25,13 +27,18 @@ use crate::phosphor::excitation::{
     SATURATION_MIN,
 };
 use crate::phosphor::maps::{PixelMaps, MAP_STATES};
-use crate::phosphor::{
-    band_spectrum, reradiation_functions, reradiation_functions_rgb, simulate, BandCamera,
-    BandSet, DecayCurve, DecayFit, Integrator, Material, Segment,
+use crate::phosphor::synth::{
+    two_state_variant, DecayFrames, DecaySeriesSpec, FrameLayout, SyntheticCurve,
 };
-use crate::preset::phosphor::{DecayFitRecord, LambdaCameraScale};
+use crate::phosphor::{
+    band_spectrum, reradiation_functions, reradiation_functions_rgb, simulate, BandCamera, BandSet,
+    DecayCurve, DecayFit, Integrator, Material, Segment,
+};
+use crate::phosphor::{fit_decay, DecayFitOptions};
+use crate::preset::phosphor::{decay_flags_text, DecayFitRecord, LambdaCameraScale};
 use crate::preset::Bands;
 use crate::spectrum::MultiSpectrum;
+use rayon::prelude::*;
 
 /// The least-squares factor s minimising Σ_i Σ_c (s·(C Λ_i k_r,i)_c − a_i,c)² over states
 /// `(k_r,i, Λ_i, a_i)` with `a_i` the RGB amplitudes at switch-off that a decay fit measured:
@@ -115,7 +122,10 @@ pub fn decay_preset(
         });
     };
     let BandSet::RangesNm(ranges) = BandSet::uniform(400.0, 700.0, sp.n_bands)? else {
-        return Err(Error::invalid("--bands", "uniform bands are wavelength bands"));
+        return Err(Error::invalid(
+            "--bands",
+            "uniform bands are wavelength bands",
+        ));
     };
     let spec = band_spectrum(sp.wavelengths_nm, sp.values, &ranges)?;
     let cam = BandCamera::for_bands(&BandSet::RangesNm(ranges.clone()), camera.sensitivities)?;
@@ -187,9 +197,15 @@ pub fn pixel_map_files(maps: &PixelMaps) -> Result<Vec<(String, Vec<u8>)>> {
             format!("k{}_per_s.tif", i + 1),
             scalar_map_tiff(w, h, &maps.k_per_s[i])?,
         ));
-        files.push((format!("a{}.tif", i + 1), scalar_map_tiff(w, h, &maps.amplitude[i])?));
+        files.push((
+            format!("a{}.tif", i + 1),
+            scalar_map_tiff(w, h, &maps.amplitude[i])?,
+        ));
     }
-    files.push(("n_states.tif".into(), scalar_map_tiff(w, h, &maps.n_states)?));
+    files.push((
+        "n_states.tif".into(),
+        scalar_map_tiff(w, h, &maps.n_states)?,
+    ));
     files.push(("rms.tif".into(), scalar_map_tiff(w, h, &maps.rms)?));
     for (c, name) in ["r", "g", "b"].iter().enumerate() {
         files.push((
@@ -199,7 +215,11 @@ pub fn pixel_map_files(maps: &PixelMaps) -> Result<Vec<(String, Vec<u8>)>> {
     }
     files.push((
         "spectrum_rgb.tif".into(),
-        rgb_map_tiff(w, h, [&maps.spectrum[0], &maps.spectrum[1], &maps.spectrum[2]])?,
+        rgb_map_tiff(
+            w,
+            h,
+            [&maps.spectrum[0], &maps.spectrum[1], &maps.spectrum[2]],
+        )?,
     ));
     Ok(files)
 }
@@ -254,6 +274,63 @@ pub fn pixel_map_summary(
     })
 }
 
+/// One row of the batch output for a fitted curve.
+pub fn batch_row(id: &str, fit: &DecayFit) -> BatchResultRow {
+    let k = |j: usize| fit.states.get(j).map(|s| s.k_per_s);
+    let a = |j: usize| fit.states.get(j).map(|s| s.amplitude);
+    let sp = |c: usize| fit.spectrum.get(c).copied();
+    BatchResultRow {
+        id: id.to_string(),
+        n_states: Some(fit.states.len()),
+        k1_per_s: k(0),
+        k2_per_s: k(1),
+        k3_per_s: k(2),
+        a1: a(0),
+        a2: a(1),
+        a3: a(2),
+        spectrum_r: sp(0),
+        spectrum_g: sp(1),
+        spectrum_b: sp(2),
+        rms: Some(fit.rms),
+        flags: decay_flags_text(fit),
+    }
+}
+
+/// Fits every curve of a batch in parallel (`progress` is called once per curve). A curve that
+/// cannot be fitted gives an error row; when every curve fails, the error names `source` and
+/// the first failure (a batch that fits nothing is not a success).
+pub fn fit_batch(
+    batch: &BatchCsv,
+    opts: &DecayFitOptions,
+    source: &str,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<BatchResultRow>> {
+    let rows: Vec<BatchResultRow> = batch
+        .curves
+        .par_iter()
+        .map(|c| {
+            let row = match c.to_curve().and_then(|curve| fit_decay(&curve, opts)) {
+                Ok(fit) => batch_row(&c.id, &fit),
+                Err(e) => BatchResultRow::failed(&c.id, &e.to_string()),
+            };
+            progress();
+            row
+        })
+        .collect();
+    if !rows.is_empty() && rows.iter().all(BatchResultRow::is_error) {
+        return Err(Error::invalid(
+            source,
+            format!(
+                "none of the {} curves could be fitted; the first, '{}': {}",
+                rows.len(),
+                rows[0].id,
+                rows[0].flags.trim_start_matches("error: ")
+            ),
+        ));
+    }
+    Ok(rows)
+}
+
 /// Checks the memory a simulation of `history` at step `dt_s` would take for a material with
 /// `n_bands` bands and `n_states` states (and camera RGB), before simulating.
 pub fn check_simulation_size(
@@ -276,8 +353,112 @@ pub fn check_simulation_size(
         u128::MAX
     };
     // per sample: time, emission and r vectors (24-byte headers + values), RGB, CSV text ~ 24 B/value
-    let per = 8 + 2 * 24 + 8 * (n_bands + n_states) as u128 + 24 + 24 * (n_bands + n_states + 4) as u128;
+    let per =
+        8 + 2 * 24 + 8 * (n_bands + n_states) as u128 + 24 + 24 * (n_bands + n_states + 4) as u128;
     crate::limits::check_memory("--dt", &format!("{dt_s} s over {total} s"), steps, per)
+}
+
+/// Checks the sizes a user typed for `synth phos-decay` against the memory they need: `frames`
+/// samples per curve, and (`size` = Some((w, h))) one float frame plus its 16-bit TIFF for each
+/// of `in_flight` frames rendered at once.
+pub fn check_decay_series_size(
+    frames: usize,
+    size: Option<(usize, usize)>,
+    in_flight: usize,
+) -> Result<()> {
+    // per frame and curve: time, RGB, clean RGB, σ (8 B each) in two curves, plus CSV text
+    crate::limits::check_memory(
+        "--frames",
+        &frames.to_string(),
+        frames as u128,
+        2 * 8 * 8 + 128,
+    )?;
+    if let Some((w, h)) = size {
+        // 3 channels × (f32 frame + u16 pixels + u16 TIFF bytes)
+        crate::limits::check_memory(
+            "--size",
+            &format!("{w}x{h}"),
+            (w as u128) * (h as u128) * 3 * in_flight.max(1) as u128,
+            4 + 2 + 2,
+        )?;
+    }
+    Ok(())
+}
+
+/// Frame `j` of a synthetic decay series as a 16-bit linear TIFF.
+pub fn decay_frame_tiff(fr: &DecayFrames, j: usize) -> Result<Vec<u8>> {
+    let px: Vec<u16> = fr
+        .frame(j)?
+        .iter()
+        .map(|v| (f64::from(*v) * 65535.0).round() as u16)
+        .collect();
+    encode_tiff16(fr.width as u32, fr.height as u32, &px)
+}
+
+/// What `synth phos-decay --curve-only` records beside `curve.csv` (`manifest.json`).
+pub fn synth_curve_manifest(
+    material: &Material,
+    c: &SyntheticCurve,
+    spec: &DecaySeriesSpec,
+) -> serde_json::Value {
+    serde_json::json!({
+        "generator": "lumifit synth phos-decay",
+        "material": material.name,
+        "rates_per_s": material.states.iter().map(|s| s.k_r_per_s).collect::<Vec<_>>(),
+        "r_at_switch_off": c.r0,
+        "saturation_assumed": c.saturation_assumed,
+        "charge_s": spec.charge_s, "frames": spec.frames, "interval_s": spec.interval_s,
+        "exposure_s": spec.exposure_s, "noise": spec.noise, "seed": spec.seed,
+        "time_s": "start of each exposure window after switch-off; values are window means",
+        "curve": "curve.csv",
+    })
+}
+
+/// The curve of `synth phos-decay --curve-only` as its CSV type.
+pub fn synth_curve_csv(c: &SyntheticCurve) -> CurveCsv {
+    CurveCsv {
+        time_s: c.t_s.clone(),
+        names: vec!["r".into(), "g".into(), "b".into()],
+        channels: (0..3)
+            .map(|k| c.rgb.iter().map(|v| v[k]).collect())
+            .collect(),
+        sigma: Some((SigmaColumn::Std, c.sigma.clone())),
+    }
+}
+
+/// The ground truth of a synthetic decay series (`truth.json`).
+pub fn synth_frames_truth(
+    material: &Material,
+    layout: FrameLayout,
+    fr: &DecayFrames,
+    spec: &DecaySeriesSpec,
+) -> Result<serde_json::Value> {
+    let region = |i: usize, m: &Material| {
+        serde_json::json!({
+            "material": m.name,
+            "rates_per_s": m.states.iter().map(|s| s.k_r_per_s).collect::<Vec<_>>(),
+            "r_at_switch_off": fr.curves[i].r0,
+            "saturation_assumed": fr.curves[i].saturation_assumed,
+            "first_frame_value": fr.clean_value(i, 0),
+        })
+    };
+    let mut regions = vec![region(0, material)];
+    if layout == FrameLayout::Halves {
+        let v = two_state_variant(material)?;
+        regions.push(region(1, &v));
+    }
+    Ok(serde_json::json!({
+        "generator": "lumifit synth phos-decay",
+        "layout": match layout { FrameLayout::Uniform => "uniform", FrameLayout::Halves => "halves: x < width/2 is regions[0], the rest regions[1]" },
+        "size": [fr.width, fr.height],
+        "regions": regions,
+        "charge_s": spec.charge_s, "frames": spec.frames, "interval_s": spec.interval_s,
+        "exposure_s": spec.exposure_s, "iso": 100, "f_number": 1,
+        "noise": spec.noise, "seed": spec.seed,
+        "gain": fr.gain,
+        "values": "frame value = gain * camera RGB window mean * exposure_s, 16-bit linear (0-65535 = 0-1), shot + read noise (capture::synth::noisy_value, peak 0.8)",
+        "manifest": "manifest.csv",
+    }))
 }
 
 /// One row of the integrator comparison.
@@ -487,7 +668,10 @@ pub fn excitation(
 }
 
 /// The report of an excitation fit (`extra.excitation_fit`).
-pub fn excitation_report(r: &ExcitationResult, series: Option<serde_json::Value>) -> serde_json::Value {
+pub fn excitation_report(
+    r: &ExcitationResult,
+    series: Option<serde_json::Value>,
+) -> serde_json::Value {
     let fit = &r.fit;
     let mut report = serde_json::json!({
         "model": "Eq. 1 charged from dark under the unit-length source of each band, exact closed form; measured after the switch-off delay; k_e assumed constant over the source's support",
@@ -683,10 +867,7 @@ pub fn render_charging_images(
         exposures.push((name, exposure_s));
     }
     let dark = vec![PEDESTAL_DN; 3 * w * h];
-    files.push((
-        "dark.tif".into(),
-        encode_tiff16(w as u32, h as u32, &dark)?,
-    ));
+    files.push(("dark.tif".into(), encode_tiff16(w as u32, h as u32, &dark)?));
     let mut rows = Vec::new();
     for ((name, exposure_s), &t) in exposures.iter().zip(times) {
         for b in 0..n_bands {

@@ -26,8 +26,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    draw_err, draw_text, fit_text, needs_halo, render_png_bytes, spectral_axes, text_width, AxesSpec,
-    TextSpec, INK, MUTED_INK,
+    draw_err, draw_text, fit_text, needs_halo, render_png_bytes, spectral_axes, text_width,
+    AxesSpec, TextSpec, INK, MUTED_INK,
 };
 use crate::error::{Error, Result};
 use crate::phosphor::design::{

@@ -13,7 +13,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::phosphor::{self, AmplitudeModel, BandSet, DecayFit, Material, PhosphorState};
 use crate::preset::{
-    read_material, Bands, MaterialPreset, PhosphorescenceSection, PhosphorescentState, Provenance,
+    read_material, Bands, InputFile, MaterialPreset, PhosphorescenceSection, PhosphorescentState,
+    Provenance,
 };
 
 /// Key of the decay-fit record in `phosphorescence.extra`.
@@ -223,6 +224,16 @@ impl DecayFitRecord {
     }
 }
 
+/// Provenance of `command` listing `files` with the SHA-256 of each (read now).
+pub fn provenance_of_files<P: AsRef<Path>>(command: &str, files: &[P]) -> Result<Provenance> {
+    let mut p = Provenance::new::<&Path>(command, &[]);
+    p.inputs = files
+        .iter()
+        .map(InputFile::from_file)
+        .collect::<Result<Vec<_>>>()?;
+    Ok(p)
+}
+
 /// The fit-quality summary of a decay fit (flags joined by `;`).
 pub fn decay_flags_text(fit: &DecayFit) -> String {
     fit.flags
@@ -382,14 +393,22 @@ mod tests {
     fn a_decay_fit_preset_round_trips_its_record_through_the_preset_json() {
         let prov = Provenance::new::<&str>("test", &[]);
         let r = record();
-        let p =
-            decay_fit_preset("m", prov, Bands::Rgb, vec![(0.1, vec![0.5, 0.25, 0.125])], &r)
-                .unwrap();
+        let p = decay_fit_preset(
+            "m",
+            prov,
+            Bands::Rgb,
+            vec![(0.1, vec![0.5, 0.25, 0.125])],
+            &r,
+        )
+        .unwrap();
         let text = to_json_string(&p).unwrap();
         let Preset::Material(back) = parse_preset(text.as_bytes(), "m.json").unwrap() else {
             panic!("not a material preset");
         };
-        assert_eq!(DecayFitRecord::from_preset(&back, "m.json").unwrap(), Some(r));
+        assert_eq!(
+            DecayFitRecord::from_preset(&back, "m.json").unwrap(),
+            Some(r)
+        );
         let m = material_from_preset(&back, "m.json").unwrap();
         assert_eq!(m.states.len(), 1);
         assert_eq!(m.states[0].lambda, vec![0.5, 0.25, 0.125]);
@@ -398,9 +417,14 @@ mod tests {
     #[test]
     fn a_renamed_field_of_the_decay_record_is_an_error_naming_the_field() {
         let prov = Provenance::new::<&str>("test", &[]);
-        let mut p =
-            decay_fit_preset("m", prov, Bands::Rgb, vec![(0.1, vec![0.5, 0.25, 0.125])], &record())
-                .unwrap();
+        let mut p = decay_fit_preset(
+            "m",
+            prov,
+            Bands::Rgb,
+            vec![(0.1, vec![0.5, 0.25, 0.125])],
+            &record(),
+        )
+        .unwrap();
         let sec = p.phosphorescence.as_mut().unwrap();
         let rec = sec.extra.get_mut(DECAY_FIT_KEY).unwrap();
         let st = rec["states"][0].as_object_mut().unwrap();
@@ -418,7 +442,14 @@ mod tests {
     #[test]
     fn a_preset_without_a_decay_record_has_none() {
         let prov = Provenance::new::<&str>("test", &[]);
-        let p = design_preset("d", prov, 0.1, [1.0, 1.0, 1.0], [0.1, 0.2, 0.3], serde_json::json!({}));
+        let p = design_preset(
+            "d",
+            prov,
+            0.1,
+            [1.0, 1.0, 1.0],
+            [0.1, 0.2, 0.3],
+            serde_json::json!({}),
+        );
         assert_eq!(DecayFitRecord::from_preset(&p, "d.json").unwrap(), None);
     }
 }
