@@ -443,3 +443,48 @@ fn sizes_too_large_for_memory_are_refused_with_the_flag_and_the_numbers() {
     assert_rejected(&o, &["--dt", "MiB"]);
     assert_eq!(listing(d.path()), ["h.csv"]);
 }
+
+#[test]
+fn a_simulation_that_overflows_is_an_error_naming_the_history_not_a_csv_of_nan() {
+    let d = tempfile::tempdir().unwrap();
+    // Euler at h = 10 s under |E| = 100 per band leaves its stable region: |1 − h·Σk| ≈ 50 per
+    // step over 300 steps overflows f64
+    let h = write(
+        d.path(),
+        "bright.csv",
+        "duration_s,a,b,c,d,e,f,g,h\n3000,100,100,100,100,100,100,100,100\n60,0,0,0,0,0,0,0,0\n",
+    );
+    let keep = write(d.path(), "sim.csv", "old\n");
+    let o = lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        "green_paint",
+        "--history",
+        &h.to_string_lossy(),
+        "--integrator",
+        "euler",
+        "--dt",
+        "10",
+        "--out",
+        &keep.to_string_lossy(),
+    ]);
+    assert_rejected(&o, &["not finite", "bright.csv", "Euler"]);
+    assert_eq!(std::fs::read(&keep).unwrap(), b"old\n");
+    // the exact update of the same history is finite and written
+    ok(&lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        "green_paint",
+        "--history",
+        &h.to_string_lossy(),
+        "--dt",
+        "10",
+        "--out",
+        &keep.to_string_lossy(),
+    ]));
+    assert!(std::fs::read_to_string(&keep)
+        .unwrap()
+        .starts_with("time_s,"));
+}

@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use crate::capture::rng::SplitMix64;
 use crate::capture::{PhotoSeries, Roi};
-use crate::error::{Error, Result};
+use crate::error::{ensure_finite, Error, Result};
 use crate::io::image::encode_tiff16;
 use crate::io::maps::{rgb_map_tiff, scalar_map_tiff};
 use crate::io::phos_formats::{BatchCsv, BatchResultRow, CurveCsv, SigmaColumn};
@@ -32,7 +32,7 @@ use crate::phosphor::synth::{
 };
 use crate::phosphor::{
     band_spectrum, reradiation_functions, reradiation_functions_rgb, simulate, BandCamera, BandSet,
-    DecayCurve, DecayFit, Integrator, Material, Segment,
+    DecayCurve, DecayFit, Integrator, Material, Segment, Simulation,
 };
 use crate::phosphor::{fit_decay, DecayFitOptions};
 use crate::preset::phosphor::{decay_flags_text, DecayFitRecord, LambdaCameraScale};
@@ -107,6 +107,18 @@ pub fn decay_preset(
     spectrum: Option<EmissionSpectrum<'_>>,
     camera: RecordingCamera<'_>,
 ) -> Result<DecayPreset> {
+    let fitted: Vec<f64> = fit
+        .states
+        .iter()
+        .flat_map(|s| {
+            [s.k_per_s, s.amplitude]
+                .into_iter()
+                .chain(s.channel_amplitudes.iter().copied())
+        })
+        .chain(fit.spectrum.iter().copied())
+        .chain([fit.rms])
+        .collect();
+    ensure_finite("the decay fit", curve_source, &fitted)?;
     let mut record = DecayFitRecord::new(fit);
     let Some(sp) = spectrum else {
         if curve.channels.len() != 3 {
@@ -157,6 +169,8 @@ pub fn decay_preset(
             value: scale,
         });
     }
+    let lambda: Vec<f64> = states.iter().flat_map(|(_, l)| l.iter().copied()).collect();
+    ensure_finite("the re-radiation functions Λ", sp.source, &lambda)?;
     Ok(DecayPreset {
         bands: Bands::RangesNm(ranges),
         states,
@@ -296,6 +310,14 @@ pub fn batch_row(id: &str, fit: &DecayFit) -> BatchResultRow {
     }
 }
 
+fn fit_is_finite(fit: &DecayFit) -> bool {
+    fit.states
+        .iter()
+        .all(|s| s.k_per_s.is_finite() && s.amplitude.is_finite())
+        && fit.spectrum.iter().all(|v| v.is_finite())
+        && fit.rms.is_finite()
+}
+
 /// Fits every curve of a batch in parallel (`progress` is called once per curve). A curve that
 /// cannot be fitted gives an error row; when every curve fails, the error names `source` and
 /// the first failure (a batch that fits nothing is not a success).
@@ -310,7 +332,11 @@ pub fn fit_batch(
         .par_iter()
         .map(|c| {
             let row = match c.to_curve().and_then(|curve| fit_decay(&curve, opts)) {
-                Ok(fit) => batch_row(&c.id, &fit),
+                Ok(fit) if fit_is_finite(&fit) => batch_row(&c.id, &fit),
+                Ok(_) => BatchResultRow::failed(
+                    &c.id,
+                    "the fit is not finite (overflow or 0/0); expected values whose result fits in f64",
+                ),
                 Err(e) => BatchResultRow::failed(&c.id, &e.to_string()),
             };
             progress();
@@ -459,6 +485,34 @@ pub fn synth_frames_truth(
         "values": "frame value = gain * camera RGB window mean * exposure_s, 16-bit linear (0-65535 = 0-1), shot + read noise (capture::synth::noisy_value, peak 0.8)",
         "manifest": "manifest.csv",
     }))
+}
+
+/// Simulates `material` under `history` (from dark) and, with a camera, the camera RGB of the
+/// emission; a result that is not finite (an explicit integrator leaving its stable region, an
+/// overflow) is [`Error::NonFinite`] naming `input`, never a CSV of NaN.
+pub fn simulate_checked(
+    material: &Material,
+    history: &[Segment],
+    dt_s: f64,
+    integrator: Integrator,
+    camera: Option<&BandCamera>,
+    input: &str,
+) -> Result<(Simulation, Option<Vec<[f64; 3]>>)> {
+    check_simulation_size(history, dt_s, material.bands.len(), material.states.len())?;
+    let r0 = vec![0.0; material.states.len()];
+    let sim = simulate(material, history, &r0, dt_s, integrator)?;
+    let rgb: Option<Vec<[f64; 3]>> =
+        camera.map(|cam| sim.emission.iter().map(|e| cam.rgb(e)).collect());
+    let values: Vec<f64> = sim
+        .emission
+        .iter()
+        .chain(&sim.r)
+        .flatten()
+        .copied()
+        .chain(rgb.iter().flatten().flatten().copied())
+        .collect();
+    ensure_finite("the simulated emission", input, &values)?;
+    Ok((sim, rgb))
 }
 
 /// One row of the integrator comparison.
@@ -658,6 +712,12 @@ pub fn excitation(
     }
     let fit = fit_excitation(&material, camera, sources, data, opts)?;
     let updated = apply_excitation(&material, &fit);
+    let k_e: Vec<f64> = updated
+        .states
+        .iter()
+        .flat_map(|s| s.k_e.iter().flatten().chain(&s.lambda).copied())
+        .collect();
+    ensure_finite("the excitation fit (k_e, Λ)", "the charging data", &k_e)?;
     Ok(ExcitationResult {
         fit,
         updated,

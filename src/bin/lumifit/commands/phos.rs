@@ -6,13 +6,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use lumifit::capture::{PhotoSeries, Roi};
-use lumifit::io::phos_formats::{read_curve, BatchCsv, BatchResultRow, HistoryCsv, SimulationCsv};
+use lumifit::io::phos_formats::{
+    read_band_camera, read_curve, BatchCsv, BatchResultRow, HistoryCsv, SimulationCsv,
+};
 use lumifit::io::series::{load_series, SeriesOptions};
 use lumifit::io::spectrum_csv::{read_multi_spectrum, read_spectrum};
 use lumifit::io::Outputs;
 use lumifit::phosphor::{
-    self, fit_decay, AmplitudeModel, BandCamera, DecayCurve, DecayFitOptions, Integrator,
-    StatesChoice,
+    self, fit_decay, AmplitudeModel, DecayCurve, DecayFitOptions, Integrator, StatesChoice,
 };
 use lumifit::pipeline::phos as pipe;
 use lumifit::plot::phosphor_sim::{simulate_chart_png, SimulateChart};
@@ -177,24 +178,29 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
     declare_plot(&mut out, &a.plot)?;
     let material = resolved.material;
     let history = HistoryCsv::read(&a.history, material.bands.len())?;
-    pipe::check_simulation_size(&history, a.dt, material.bands.len(), material.states.len())?;
     let integrator = match a.integrator {
         IntegratorArg::Exact => Integrator::Exact,
         IntegratorArg::Rk4 => Integrator::Rk4,
         IntegratorArg::Euler => Integrator::Euler,
     };
     let camera = match &a.camera {
-        Some(p) => Some(BandCamera::for_bands(
-            &material.bands,
-            Some(&read_multi_spectrum(p)?),
-        )?),
+        Some(p) => Some(read_band_camera(p, &material.bands)?),
         None => None,
     };
-    let r0 = vec![0.0; material.states.len()];
-    let sim = phosphor::simulate(&material, &history, &r0, a.dt, integrator)?;
-    let rgb: Option<Vec<[f64; 3]>> = camera
-        .as_ref()
-        .map(|cam| sim.emission.iter().map(|e| cam.rgb(e)).collect());
+    let input = format!(
+        "{} (--integrator {:?}, --dt {} s)",
+        a.history.display(),
+        a.integrator,
+        a.dt
+    );
+    let (sim, rgb) = pipe::simulate_checked(
+        &material,
+        &history,
+        a.dt,
+        integrator,
+        camera.as_ref(),
+        &input,
+    )?;
     if let Some(p) = &a.plot {
         let chart = SimulateChart {
             material: &material,
