@@ -7,11 +7,12 @@
 //! |---|---|
 //! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
-//! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`] |
-//! | L3 | [`io`], [`preset`], [`plot`] |
+//! | L2 | [`afterimage`], [`fluor`], [`phosphor`], [`lvf`], [`recovery`], [`photometry`] |
+//! | L3 | [`io`], [`preset`], [`plot`], [`pipeline`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
 
+pub mod afterimage;
 pub mod calib;
 pub mod capture;
 pub mod colorimetry;
@@ -23,6 +24,7 @@ pub mod limits;
 pub mod lvf;
 pub mod math;
 pub mod phosphor;
+pub mod photometry;
 pub mod pipeline;
 pub mod plot;
 pub mod preset;

@@ -1,5 +1,9 @@
-//! The layering of docs/architecture.md, checked by scanning `src/`: a module may refer only to
-//! modules of lower layers (`crate::<module>`), never to its own layer's siblings or above.
+//! The house rules of docs/architecture.md, checked by scanning `src/`:
+//!
+//! - a module may refer only to modules of lower layers (`crate::<module>`, also inside grouped
+//!   imports `use crate::{a::X, b}`), never to its own layer's siblings or above;
+//! - domains (L2) do no file I/O and no printing (outside their `#[cfg(test)]` modules);
+//! - the binary parses no CSV or JSON itself (readers live in `io`/`preset`).
 
 use std::path::{Path, PathBuf};
 
@@ -9,7 +13,8 @@ use std::path::{Path, PathBuf};
 fn layer(module: &str) -> Option<f64> {
     Some(match module {
         "error" => 0.0,
-        "math" | "table" | "limits" => 0.1,
+        "limits" => 0.05,
+        "math" | "table" => 0.1,
         "calib" => 0.2,
         "spectrum" | "fit" | "capture" => 1.0,
         "colorimetry" => 1.1,
@@ -32,6 +37,138 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
             out.push(p);
         }
     }
+}
+
+/// Every `crate::<module>` reference with its 1-based line, including the top-level names of
+/// grouped imports (`use crate::{error::Error, math::{a, b}};` yields `error` and `math`).
+fn crate_references(text: &str) -> Vec<(usize, String)> {
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect()
+    };
+    let line_of = |pos: usize| 1 + text[..pos].matches('\n').count();
+    let mut out = Vec::new();
+    let mut from = 0;
+    while let Some(rel) = text[from..].find("crate::") {
+        let at = from + rel;
+        let rest = &text[at + 7..];
+        from = at + 7;
+        if let Some(group) = rest.strip_prefix('{') {
+            // Top-level items of the group: split at depth-0 commas.
+            let mut depth = 0usize;
+            let mut item_start = 0usize;
+            let mut items = Vec::new();
+            for (i, c) in group.char_indices() {
+                match c {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => {
+                        items.push(&group[item_start..i]);
+                        break;
+                    }
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => {
+                        items.push(&group[item_start..i]);
+                        item_start = i + 1;
+                    }
+                    _ => {}
+                }
+            }
+            for item in items {
+                let name = ident(item.trim_start());
+                if !name.is_empty() && name != "self" {
+                    out.push((line_of(at), name));
+                }
+            }
+        } else {
+            let name = ident(rest);
+            if !name.is_empty() {
+                out.push((line_of(at), name));
+            }
+        }
+    }
+    out
+}
+
+/// The text of a source file without its `#[cfg(test)]` modules (from the attribute to the end
+/// of the file, which is where this crate keeps them).
+fn without_tests(text: &str) -> &str {
+    match text.find("#[cfg(test)]") {
+        Some(pos) => &text[..pos],
+        None => text,
+    }
+}
+
+fn src_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+#[test]
+fn grouped_imports_are_read_by_the_layering_scan() {
+    let refs = crate_references(
+        "use crate::{error::{Error, Result}, math::linalg, self};\nlet x = crate::fit::qr::Qr::new();\n",
+    );
+    let names: Vec<_> = refs.iter().map(|(l, n)| (*l, n.as_str())).collect();
+    assert_eq!(names, vec![(1, "error"), (1, "math"), (2, "fit")]);
+}
+
+#[test]
+fn domains_do_no_file_io_and_no_printing() {
+    let domains = [
+        "lvf",
+        "recovery",
+        "phosphor",
+        "fluor",
+        "dispersion",
+        "photometry",
+        "afterimage",
+    ];
+    let forbidden = [
+        "std::fs",
+        "fs::read",
+        "fs::write",
+        "File::open",
+        "File::create",
+        "println!",
+        "eprintln!",
+        "print!(",
+        "eprint!(",
+        "dbg!(",
+        "std::io::stdout",
+        "std::io::stderr",
+        "std::io::stdin",
+    ];
+    let mut violations = Vec::new();
+    let mut scanned = 0;
+    for d in domains {
+        let mut files = Vec::new();
+        let dir = src_dir().join(d);
+        if dir.is_dir() {
+            rust_files(&dir, &mut files);
+        }
+        let single = src_dir().join(format!("{d}.rs"));
+        if single.is_file() {
+            files.push(single);
+        }
+        for f in files {
+            scanned += 1;
+            let text = std::fs::read_to_string(&f).unwrap();
+            for (n, line) in without_tests(&text).lines().enumerate() {
+                let code = line.split("//").next().unwrap_or("");
+                for pat in forbidden {
+                    if code.contains(pat) {
+                        violations.push(format!("{}:{}: `{pat}` in a domain", f.display(), n + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(scanned >= 4, "only {scanned} domain files scanned");
+    assert!(
+        violations.is_empty(),
+        "domains must be pure (readers in io, printing in the binary):\n{}",
+        violations.join("\n")
+    );
 }
 
 #[test]
@@ -62,15 +199,9 @@ fn modules_import_only_from_lower_layers() {
             continue;
         };
         let text = std::fs::read_to_string(&f).unwrap();
-        for (n, line) in text.lines().enumerate() {
-            let mut rest = line;
-            while let Some(pos) = rest.find("crate::") {
-                rest = &rest[pos + 7..];
-                let target: String = rest
-                    .chars()
-                    .take_while(|c| c.is_alphanumeric() || *c == '_')
-                    .collect();
-                if target.is_empty() || target == module {
+        for (n, target) in crate_references(&text) {
+            {
+                if target == module {
                     continue;
                 }
                 checked += 1;
@@ -79,7 +210,7 @@ fn modules_import_only_from_lower_layers() {
                     Some(_) => violations.push(format!(
                         "{}:{}: '{module}' (layer {own}) uses 'crate::{target}' of the same or a higher layer",
                         rel.display(),
-                        n + 1
+                        n
                     )),
                     None => {}
                 }

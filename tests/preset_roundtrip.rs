@@ -3,9 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use lumifit::preset::{
-    read_light, read_material, read_preset, write_preset, Bands, LightPreset, MaterialPreset,
-    OpenSection, PhosphorescenceSection, PhosphorescentState, Preset, Provenance,
-    ReflectanceSection, SCHEMA_JSON,
+    parse_preset, read_light, read_material, read_preset, to_json_string, write_preset, Bands,
+    FluorescenceBasis, FluorescenceDeltaE, FluorescenceResampling, FluorescenceRgb,
+    FluorescenceSection, GridNm, LightPreset, MaterialPreset, OpenSection, PhosphorescenceSection,
+    PhosphorescentState, Preset, Provenance, ReflectanceSection, SCHEMA_JSON,
 };
 use lumifit::Error;
 use serde_json::json;
@@ -25,6 +26,58 @@ fn object(value: serde_json::Value) -> OpenSection {
     match value {
         serde_json::Value::Object(map) => map,
         other => panic!("test data is not an object: {other}"),
+    }
+}
+
+/// A typed fluorescence section as `fluor reduce` writes it (K = 3, one illuminant), with an
+/// extra field that must be kept.
+fn fluorescence() -> FluorescenceSection {
+    FluorescenceSection {
+        method: "dual".into(),
+        paper: "Fichet, Belcour & Barla 2024, CGF 43(4)".into(),
+        basis: FluorescenceBasis {
+            name: "xyz".into(),
+            k: 3,
+            labels: vec!["X".into(), "Y".into(), "Z".into()],
+            observer: "cie2015-2".into(),
+            grid_nm: GridNm {
+                start_nm: 300.0,
+                end_nm: 302.0,
+                step_nm: 1.0,
+            },
+            functions: vec![vec![0.1, 0.2, 0.3]; 3],
+        },
+        matrix: vec![
+            vec![1.0, 0.1, 0.0],
+            vec![0.0, 0.9, 0.2],
+            vec![0.0, 0.0, 1.0 / 3.0],
+        ],
+        transfer_xyz: vec![
+            vec![1.0, 0.0, 0.0],
+            vec![0.0, 1.0, 0.0],
+            vec![0.0, 0.0, 1.0],
+        ],
+        xyz_matrix: [[1.0, 0.1, 0.0], [0.0, 0.9, 0.2], [0.0, 0.0, 0.7]],
+        rgb: FluorescenceRgb {
+            space: "srgb".into(),
+            matrix: [[1.1, 0.0, 0.0], [0.0, 0.95, 0.1], [0.0, 0.0, 0.8]],
+            projected_from_k: 3,
+            equation: "M_xyz_to_rgb · P_xyz · M_xyz_to_rgb⁻¹ (Eq. 16)".into(),
+        },
+        resampling: FluorescenceResampling {
+            clip_negatives: true,
+            zero_anti_stokes: false,
+            diagonal: "linear, as a reflectance".into(),
+            off_diagonal: "bilinear, as a density × step".into(),
+        },
+        delta_e00: vec![FluorescenceDeltaE {
+            illuminant: "D65".into(),
+            delta_e00: 0.125,
+            xyz_reference: [40.0, 42.5, 30.0],
+            xyz_reduced: [40.1, 42.4, 30.2],
+        }],
+        worst_delta_e00: 0.125,
+        extra: object(json!({"note": "kept"})),
     }
 }
 
@@ -57,7 +110,7 @@ fn full_material() -> MaterialPreset {
         ],
         extra: object(json!({"note": "kept"})),
     });
-    preset.fluorescence = Some(object(json!({"anything": [1, 2, 3]})));
+    preset.fluorescence = Some(fluorescence());
     preset.dispersion = Some(object(json!({})));
     preset.afterimage = Some(object(json!({"t_s": 1.5})));
     preset.photometric = Some(object(json!({"luminous_flux_lm": 12.25})));
@@ -442,4 +495,62 @@ fn cli_validate_error_names_the_file_and_each_violation() {
     let text = format!("{err:#}");
     assert!(text.contains("invalid_k_e_per_band.json"), "{text}");
     assert!(text.contains("/phosphorescence/states/0/k_e"), "{text}");
+}
+
+#[test]
+fn a_fluorescence_section_written_then_read_back_is_equal() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("fluor.json");
+    let mut preset = MaterialPreset::new(
+        "fluorescent paper",
+        Provenance::new(
+            "lumifit fluor reduce p.BFC",
+            &[("p.BFC", b"bfc".as_slice())],
+        ),
+    );
+    preset.fluorescence = Some(fluorescence());
+    write_preset(&path, &preset).unwrap();
+    assert_eq!(read_material(&path).unwrap(), preset);
+}
+
+#[test]
+fn a_fluorescence_section_with_a_null_or_missing_number_is_refused() {
+    let mut preset = MaterialPreset::new(
+        "fluorescent paper",
+        Provenance::new(
+            "lumifit fluor reduce p.BFC",
+            &[("p.BFC", b"bfc".as_slice())],
+        ),
+    );
+    preset.fluorescence = Some(fluorescence());
+    let text = to_json_string(&preset).unwrap();
+    // A non-finite entry is what serde writes as null: the reader must refuse it.
+    let nulled = text.replacen("0.9,", "null,", 1);
+    assert_ne!(nulled, text);
+    let e = parse_preset(nulled.as_bytes(), "nulled.json").unwrap_err();
+    assert!(
+        message(&e).contains("nulled.json") && message(&e).contains("fluorescence"),
+        "{e}"
+    );
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["fluorescence"]
+        .as_object_mut()
+        .unwrap()
+        .remove("xyz_matrix");
+    let e = parse_preset(v.to_string().as_bytes(), "missing.json").unwrap_err();
+    assert!(message(&e).contains("xyz_matrix"), "{e}");
+    // A writer refuses a non-finite number instead of writing null.
+    let mut bad = preset.clone();
+    bad.fluorescence.as_mut().unwrap().worst_delta_e00 = f64::INFINITY;
+    assert!(to_json_string(&bad).is_err());
+}
+
+#[test]
+fn a_preset_with_a_byte_order_mark_is_read() {
+    let text = to_json_string(&full_material()).unwrap();
+    let with_bom = format!("\u{feff}{text}");
+    assert_eq!(
+        parse_preset(with_bom.as_bytes(), "bom.json").unwrap(),
+        Preset::Material(full_material())
+    );
 }

@@ -13,6 +13,7 @@ pub mod illuminant;
 pub mod lab;
 pub mod observer;
 pub mod rgb;
+pub mod summary;
 pub mod tristimulus;
 pub mod xyy;
 

@@ -47,8 +47,13 @@ pub fn read_image_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInf
     }
     let mut reader = reader;
     reader.no_limits();
-    let img = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reader.decode()))
-        .map_err(|_| image_error(path, "the decoder failed on malformed data"))?
+    let img = super::raw::quiet_catch_unwind(|| reader.decode())
+        .map_err(|cause| {
+            image_error(
+                path,
+                format!("the decoder failed on malformed data: {cause}"),
+            )
+        })?
         .map_err(|e| image_error(path, e))?;
     let name = path.display().to_string();
     let mut info = FrameInfo {

@@ -9,14 +9,22 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+pub mod afterimage_csv;
+pub mod camera;
+pub mod captures;
+pub mod eulumdat;
 pub mod exif;
 pub mod filters;
+pub mod hdr_image;
+pub mod ies;
 pub mod image;
+pub mod lvf_model;
 pub mod maps;
 pub mod output;
 pub mod phos_formats;
 pub mod raw;
 pub mod series;
+pub mod sources;
 pub mod spectrum_csv;
 
 pub use output::Outputs;
@@ -88,4 +96,33 @@ pub fn parse_json<T: serde::de::DeserializeOwned>(bytes: &[u8], source: &str) ->
 pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     let (bytes, source) = read_input(path)?;
     parse_json(&bytes, &source)
+}
+
+/// Reads an IES LM-63 or EULUMDAT file, told apart by content (an IES file has an `IES…`
+/// version line or a `TILT=` line; anything else is read as EULUMDAT). `lamp_tilt_deg` applies
+/// an IES TILT table at that lamp tilt (0 = as photometered).
+pub fn read_photometric(
+    path: &Path,
+    lamp_tilt_deg: f64,
+) -> Result<crate::photometry::PhotometricFile> {
+    let (bytes, source) = read_input(path)?;
+    let text = crate::table::as_text(&bytes, &source, "an IES or EULUMDAT photometric file")?;
+    let first = text
+        .lines()
+        .next()
+        .unwrap_or("")
+        .trim_start()
+        .to_ascii_uppercase();
+    let is_ies = first.starts_with("IES")
+        || text
+            .lines()
+            .take(500)
+            .any(|l| l.trim_start().to_ascii_uppercase().starts_with("TILT="));
+    if is_ies {
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let loader = move |name: &str| read_input(&dir.join(name));
+        ies::parse_ies(&bytes, &source, &loader, lamp_tilt_deg)
+    } else {
+        eulumdat::parse_ldt(&bytes, &source)
+    }
 }

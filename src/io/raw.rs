@@ -50,6 +50,38 @@ fn decode_error(path: &Path, reason: impl std::fmt::Display) -> Error {
     )
 }
 
+thread_local! {
+    /// Set while this thread runs a decoder whose panics are caught and reported as errors.
+    static SILENCED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f`, turning a panic into `Err(panic message)` without printing the panic.
+///
+/// A process-wide panic hook is installed once; it stays silent on threads inside this call and
+/// hands every other panic to the hook that was there before, so panics elsewhere (other threads,
+/// tests) are reported as usual.
+pub(crate) fn quiet_catch_unwind<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !SILENCED.with(|s| s.get()) {
+                previous(info);
+            }
+        }));
+    });
+    let was = SILENCED.with(|s| s.replace(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    SILENCED.with(|s| s.set(was));
+    result.map_err(|payload| {
+        payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "panic without a message".to_string())
+    })
+}
+
 /// Decodes a RAW file into a half-resolution linear frame plus what was learned about it.
 ///
 /// # Errors
@@ -61,17 +93,24 @@ pub fn read_raw(path: &Path) -> Result<(RgbFrame, FrameInfo)> {
 
 /// As [`read_raw`], from bytes already in memory (`path` names them in messages).
 pub fn read_raw_bytes(bytes: &[u8], path: &Path) -> Result<(RgbFrame, FrameInfo)> {
-    // rawloader panics on some malformed inputs (e.g. truncated data); a panic is a decode error.
-    let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        rawloader::decode(&mut std::io::Cursor::new(bytes))
-    }));
+    // rawloader panics on some malformed inputs (e.g. truncated data); a panic is a decode error,
+    // and its text is not printed (the hook is silenced for this thread while decoding).
+    let decoded = quiet_catch_unwind(|| rawloader::decode(&mut std::io::Cursor::new(bytes)));
     let raw = match decoded {
         Ok(Ok(r)) => r,
-        Ok(Err(e)) => return Err(decode_error(path, format!("rawloader: {e:?}"))),
-        Err(_) => {
+        // rawloader catches some of its own panics and says so with a plea to file a bug; for a
+        // user that is the same malformed or truncated file as a panic caught here.
+        Ok(Err(e)) if format!("{e:?}").contains("Caught a panic") => {
             return Err(decode_error(
                 path,
                 "rawloader failed on malformed or truncated data",
+            ))
+        }
+        Ok(Err(e)) => return Err(decode_error(path, format!("rawloader: {e:?}"))),
+        Err(cause) => {
+            return Err(decode_error(
+                path,
+                format!("rawloader failed on malformed or truncated data: {cause}"),
             ))
         }
     };

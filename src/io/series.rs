@@ -220,13 +220,7 @@ pub fn exif_or_manifest(
 /// [`Error::Parse`] with the manifest's name and line.
 pub fn parse_manifest(bytes: &[u8], source: &str, base: &Path) -> Result<Vec<ManifestRow>> {
     const HEADER: &str = "file,time_s[,exposure_s,iso,f_number]";
-    let text = std::str::from_utf8(bytes).map_err(|_| {
-        Error::parse(
-            source,
-            0,
-            format!("not a text file; expected a CSV manifest {HEADER}"),
-        )
-    })?;
+    let text = crate::table::as_text(bytes, source, &format!("a CSV manifest {HEADER}"))?;
     let t = ManifestTable::parse(text, source, HEADER)?;
     let (Some(i_file), Some(i_time)) = (t.column("file"), t.column("time_s")) else {
         return Err(Error::parse(
@@ -249,6 +243,16 @@ pub fn parse_manifest(bytes: &[u8], source: &str, base: &Path) -> Result<Vec<Man
             return Err(Error::parse(source, line, "file name is empty"));
         }
         let file = base.join(f);
+        if file.is_dir() {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "frame '{}' is a directory; expected an image or RAW file",
+                    file.display()
+                ),
+            ));
+        }
         if !file.is_file() {
             return Err(Error::parse(
                 source,
@@ -333,6 +337,65 @@ fn directory_frames(dir: &Path) -> Result<Vec<PathBuf>> {
         ));
     }
     Ok(out)
+}
+
+/// A mask image as a region: pixels with any non-zero channel are inside.
+///
+/// # Errors
+/// The errors of [`read_frame`].
+pub fn read_mask(path: &Path) -> Result<crate::capture::Roi> {
+    let (frame, _) = read_frame(path)?;
+    let inside = frame
+        .data()
+        .chunks(3)
+        .map(|p| p.iter().any(|v| *v > 0.0))
+        .collect();
+    Ok(crate::capture::Roi::Mask {
+        width: frame.width,
+        height: frame.height,
+        inside,
+        name: path.display().to_string(),
+    })
+}
+
+/// Header of a region curve CSV (`series extract`).
+pub const CURVE_HEADER: &str = "time_s,r,g,b,r_std,g_std,b_std,n_pixels,n_saturated";
+
+/// A region curve as CSV ([`CURVE_HEADER`], one row per frame).
+pub fn curve_csv(curve: &[crate::capture::CurveSample]) -> String {
+    let mut csv = format!("{CURVE_HEADER}\n");
+    for s in curve {
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            s.time_s,
+            s.mean[0],
+            s.mean[1],
+            s.mean[2],
+            s.std[0],
+            s.std[1],
+            s.std[2],
+            s.n_pixels,
+            s.n_saturated
+        ));
+    }
+    csv
+}
+
+/// The frame files of a series (a manifest CSV or a folder), without decoding them: what a
+/// command registers as its inputs before declaring outputs.
+///
+/// # Errors
+/// The manifest's parse errors (naming the file and line), or a folder without frames.
+pub fn series_frame_files(path: &Path) -> Result<Vec<PathBuf>> {
+    if path.is_dir() {
+        return directory_frames(path);
+    }
+    let (bytes, source) = super::read_input(path)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    Ok(parse_manifest(&bytes, &source, base)?
+        .into_iter()
+        .map(|r| r.file)
+        .collect())
 }
 
 /// Loads a series from a manifest CSV or a directory (see the module docs). `progress` is called

@@ -1,8 +1,12 @@
-//! Glue that joins two domains, or a domain and its files (layer 3, above `io`, `preset` and
-//! `plot`): what a command does between reading its inputs and staging its outputs, so that the
-//! binary only declares flags, calls one function here and prints.
+//! Glue that joins two domains, or a domain and its files (layer L3, above `io`, `preset` and
+//! `plot`): each module reads its inputs through `io`, builds the inputs of one domain from the
+//! outputs of another, and returns typed results for the binary to print or stage, so that a
+//! command declares flags, calls one function here and prints. No domain imports another; they
+//! meet here.
 //!
-//! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, integrator comparison,
-//!   excitation, design reports, synthetic charging images).
+//! - [`acquisition`]: acquisition and colour glue.
+//! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
+//!   comparison, excitation, design reports, synthetic charging images).
 
+pub mod acquisition;
 pub mod phos;

@@ -14,7 +14,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    contrasting_text, draw_curve, draw_err, draw_text, fit_text, render_png, spectral_axes,
+    contrasting_text, draw_curve, draw_err, draw_text, fit_text, render_png_bytes, spectral_axes,
     srgb_to_u8, text_width, AxesSpec, TextSpec, INK, MUTED_INK,
 };
 use crate::error::{Error, Result};
@@ -70,8 +70,20 @@ pub fn colorchecker_chart(
     illuminant_names: &[String],
     patches: &[SwatchPatch],
 ) -> Result<()> {
+    crate::io::atomic_write(
+        path,
+        &colorchecker_chart_png(title, illuminant_names, patches)?,
+    )
+}
+
+/// The same chart as [`colorchecker_chart`], encoded as PNG in memory (for staged outputs).
+pub fn colorchecker_chart_png(
+    title: &str,
+    illuminant_names: &[String],
+    patches: &[SwatchPatch],
+) -> Result<Vec<u8>> {
     validate(illuminant_names, patches)?;
-    render_png(path, SIZE_PX, |root| {
+    render_png_bytes(SIZE_PX, |root| {
         let (w, _) = root.dim_in_pixel();
         let style = TextSpec::new(30.0, INK, HPos::Center, VPos::Center);
         let title = fit_text(&root, title, style.size_px, w - 40)?;

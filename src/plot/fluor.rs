@@ -7,7 +7,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    draw_err, draw_text, fit_text, render_png, spectral_axes, AxesSpec, TextSpec, INK, MUTED_INK,
+    draw_err, draw_text, fit_text, render_png_bytes, spectral_axes, AxesSpec, TextSpec, INK,
+    MUTED_INK,
 };
 use crate::error::{Error, Result};
 
@@ -83,6 +84,11 @@ const METHOD_COLOURS: [RGBColor; 8] = [
 /// [`Error::InvalidArgument`] for an empty or ragged matrix or non-finite values; [`Error::Io`]
 /// when the file cannot be written (nothing is left behind).
 pub fn fluor_chart(path: &Path, chart: &FluorChart) -> Result<()> {
+    crate::io::atomic_write(path, &fluor_chart_png(chart)?)
+}
+
+/// The same chart as [`fluor_chart`], encoded as PNG in memory (for staged outputs).
+pub fn fluor_chart_png(chart: &FluorChart) -> Result<Vec<u8>> {
     let (ne, nx) = (chart.emission_nm.len(), chart.excitation_nm.len());
     if ne < 2
         || nx < 2
@@ -97,7 +103,7 @@ pub fn fluor_chart(path: &Path, chart: &FluorChart) -> Result<()> {
     if chart.delta_e.iter().any(|d| !d.2.is_finite()) {
         return Err(Error::invalid("plot", "ΔE00 values must be finite"));
     }
-    render_png(path, SIZE_PX, |root| {
+    render_png_bytes(SIZE_PX, |root| {
         let title = TextSpec::new(28.0, INK, HPos::Center, VPos::Center);
         let t = fit_text(
             &root,

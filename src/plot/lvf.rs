@@ -7,7 +7,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    draw_curve, draw_err, draw_text, fit_text, render_png, spectral_axes, AxesSpec, TextSpec, INK,
+    draw_curve, draw_err, draw_text, fit_text, render_png_bytes, spectral_axes, AxesSpec, TextSpec,
+    INK,
 };
 use crate::error::{Error, Result};
 use crate::lvf::LvfCalibration;
@@ -22,6 +23,11 @@ const MODEL_RGB: [[u8; 3]; 3] = [[110, 10, 10], [10, 80, 25], [10, 30, 120]];
 /// # Errors
 /// [`Error::InvalidArgument`] when the calibration carries no profile; [`Error::Io`] on write.
 pub fn lvf_chart(path: &Path, cal: &LvfCalibration) -> Result<()> {
+    crate::io::atomic_write(path, &lvf_chart_png(cal)?)
+}
+
+/// The same chart as [`lvf_chart`], encoded as PNG in memory (for staged outputs).
+pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
     let c = &cal.curves;
     if c.px.len() < 2 {
         return Err(Error::invalid(
@@ -76,7 +82,7 @@ pub fn lvf_chart(path: &Path, cal: &LvfCalibration) -> Result<()> {
         cal.fwhm_nm,
         cal.rms_residual_nm
     );
-    render_png(path, SIZE_PX, |root| {
+    render_png_bytes(SIZE_PX, |root| {
         let (w, _) = root.dim_in_pixel();
         let style = TextSpec::new(22.0, INK, HPos::Center, VPos::Center);
         let t = fit_text(&root, &title, style.size_px, w - 40)?;

@@ -8,7 +8,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    draw_curve, draw_err, draw_text, fit_text, render_png, spectral_axes, AxesSpec, TextSpec, INK,
+    draw_curve, draw_err, draw_text, fit_text, render_png_bytes, spectral_axes, AxesSpec, TextSpec,
+    INK,
 };
 use crate::error::{Error, Result};
 use crate::lvf::transmission::{BandModel, BandSet};
@@ -46,6 +47,11 @@ fn band_colour(nm: f64) -> [u8; 3] {
 /// # Errors
 /// [`Error::InvalidArgument`] for an empty set; [`Error::Io`] on write.
 pub fn lvf_bands_chart(path: &Path, set: &BandSet) -> Result<()> {
+    crate::io::atomic_write(path, &lvf_bands_chart_png(set)?)
+}
+
+/// The same chart as [`lvf_bands_chart`], encoded as PNG in memory (for staged outputs).
+pub fn lvf_bands_chart_png(set: &BandSet) -> Result<Vec<u8>> {
     let g = &set.grid_nm;
     if g.len() < 2 || set.bands.is_empty() {
         return Err(Error::invalid(
@@ -122,7 +128,7 @@ pub fn lvf_bands_chart(path: &Path, set: &BandSet) -> Result<()> {
             .map(|c| format!(", median band condition number {c:.2e}"))
             .unwrap_or_default()
     );
-    render_png(path, SIZE_PX, |root| {
+    render_png_bytes(SIZE_PX, |root| {
         let (w, _) = root.dim_in_pixel();
         let style = TextSpec::new(22.0, INK, HPos::Center, VPos::Center);
         let t = fit_text(&root, &title, style.size_px, w - 40)?;

@@ -28,6 +28,7 @@ use plotters::style::{register_font, FontStyle};
 
 use crate::error::{Error, Result};
 
+pub mod afterimage;
 mod colorchecker;
 mod fluor;
 mod lvf;
@@ -41,9 +42,9 @@ mod text;
 
 pub(crate) use text::{draw_text, fit_text, text_width, TextSpec};
 
-pub use colorchecker::{colorchecker_chart, SwatchPatch};
-pub use fluor::{fluor_chart, FluorChart};
-pub use lvf::lvf_chart;
+pub use colorchecker::{colorchecker_chart, colorchecker_chart_png, SwatchPatch};
+pub use fluor::{fluor_chart, fluor_chart_png, FluorChart};
+pub use lvf::{lvf_chart, lvf_chart_png};
 pub use phosphor::{decay_chart, decay_chart_png, integrator_chart, integrator_chart_png};
 pub use phosphor_excitation::{excitation_chart, excitation_chart_png};
 pub use spectra::spectra_chart;

@@ -7,7 +7,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::{
-    draw_curve, draw_err, draw_text, fit_text, render_png, spectral_axes, AxesSpec, TextSpec, INK,
+    draw_curve, draw_err, draw_text, fit_text, render_png_bytes, spectral_axes, AxesSpec, TextSpec,
+    INK,
 };
 use crate::error::{Error, Result};
 use crate::recovery::Recovered;
@@ -34,6 +35,16 @@ pub fn recovery_chart(
     rec: &Recovered,
     references: &[Reference<'_>],
 ) -> Result<()> {
+    crate::io::atomic_write(path, &recovery_chart_png(title, y_label, rec, references)?)
+}
+
+/// The same chart as [`recovery_chart`], encoded as PNG in memory (for staged outputs).
+pub fn recovery_chart_png(
+    title: &str,
+    y_label: &str,
+    rec: &Recovered,
+    references: &[Reference<'_>],
+) -> Result<Vec<u8>> {
     let wl = &rec.wavelength_nm;
     if wl.len() < 2 || rec.value.len() != wl.len() || rec.std.len() != wl.len() {
         return Err(Error::invalid(
@@ -84,7 +95,7 @@ pub fn recovery_chart(
         rec.unknowns,
         100.0 * rec.relative_residual
     );
-    render_png(path, SIZE_PX, |root| {
+    render_png_bytes(SIZE_PX, |root| {
         let (w, _) = root.dim_in_pixel();
         let style = TextSpec::new(22.0, INK, HPos::Center, VPos::Center);
         let t = fit_text(&root, &full_title, style.size_px, w - 40)?;

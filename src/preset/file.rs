@@ -14,7 +14,8 @@ use crate::error::{Error, Result};
 /// JSON syntax errors give [`Error::Parse`] with the line, and the column in the message; the rest
 /// is [`validate_value`].
 pub fn parse_preset(bytes: &[u8], file: &str) -> Result<Preset> {
-    let value: Value = serde_json::from_slice(bytes).map_err(|e| {
+    let text = crate::table::as_text(bytes, file, "a preset JSON file")?;
+    let value: Value = serde_json::from_str(text).map_err(|e| {
         let text = e.to_string();
         let suffix = format!(" at line {} column {}", e.line(), e.column());
         let message = text.strip_suffix(&suffix).unwrap_or(&text);

@@ -27,9 +27,12 @@
 //! atomically ([`crate::io::atomic_write`]); an invalid preset is never written and an existing
 //! file is left untouched.
 
+pub mod afterimage;
 mod file;
+pub mod fluorescence;
 pub mod phosphor;
 mod provenance;
+pub mod shader;
 mod types;
 mod validate;
 
@@ -38,8 +41,9 @@ pub use file::{
 };
 pub use provenance::{sha256_hex, InputFile, Provenance};
 pub use types::{
-    Bands, LightPreset, MaterialPreset, OpenSection, PhosphorescenceSection, PhosphorescentState,
-    Preset, PresetDocument, ReflectanceSection,
+    Bands, FluorescenceBasis, FluorescenceDeltaE, FluorescenceResampling, FluorescenceRgb,
+    FluorescenceSection, GridNm, LightPreset, MaterialPreset, OpenSection, PhosphorescenceSection,
+    PhosphorescentState, Preset, PresetDocument, ReflectanceSection,
 };
 pub use validate::{schema_value, validate_value};
 

@@ -26,9 +26,9 @@ pub struct MaterialPreset {
     /// Phosphorescent states over spectral bands.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phosphorescence: Option<PhosphorescenceSection>,
-    /// Fluorescence; fields defined by the fluorescence pipeline.
+    /// Fluorescence: a Donaldson matrix reduced to a basis (Fichet et al. 2024).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fluorescence: Option<OpenSection>,
+    pub fluorescence: Option<FluorescenceSection>,
     /// Dispersion; fields defined by the dispersion pipeline.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dispersion: Option<OpenSection>,
@@ -93,6 +93,106 @@ pub struct PhosphorescentState {
     /// Further fields, kept as read.
     #[serde(flatten)]
     pub extra: OpenSection,
+}
+
+/// Fluorescence: the material's Donaldson matrix reduced to a K-function basis (Fichet, Belcour
+/// & Barla 2024, CGF 43(4)), with the 3×3 matrices for XYZ and RGB renderers and the colour
+/// error of the reduction under the illuminants it was checked with.
+///
+/// A renderer multiplies the reflected light's basis coordinates by `matrix` (K×K), or XYZ by
+/// `xyz_matrix`, or linear RGB of `rgb.space` by `rgb.matrix`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FluorescenceSection {
+    /// Reduction: `dual` (Eq. 15) or `naive` (Eq. 7).
+    pub method: String,
+    /// The paper the reduction follows.
+    pub paper: String,
+    /// The basis the matrix is expressed in.
+    pub basis: FluorescenceBasis,
+    /// Reduced matrix P (K×K, row-major).
+    pub matrix: Vec<Vec<f64>>,
+    /// Transfer T from basis coordinates to XYZ (3×K, row-major).
+    pub transfer_xyz: Vec<Vec<f64>>,
+    /// P projected to XYZ (3×3, row-major).
+    pub xyz_matrix: [[f64; 3]; 3],
+    /// P projected to an RGB working space (Eq. 16).
+    pub rgb: FluorescenceRgb,
+    /// How the measured matrix was resampled onto the working grid.
+    pub resampling: FluorescenceResampling,
+    /// ΔE00 of reduced against spectral rendering, one entry per illuminant.
+    pub delta_e00: Vec<FluorescenceDeltaE>,
+    /// Largest ΔE00 of `delta_e00`.
+    pub worst_delta_e00: f64,
+    /// Further fields, kept as read.
+    #[serde(flatten)]
+    pub extra: OpenSection,
+}
+
+/// The basis of a [`FluorescenceSection`]: K functions sampled on a uniform grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FluorescenceBasis {
+    /// Basis name (`xyz`, `xyzu`, `xyz7u` or a file stem).
+    pub name: String,
+    /// Number of functions K.
+    pub k: usize,
+    /// One label per function.
+    pub labels: Vec<String>,
+    /// Observer whose colour-matching functions the basis spans.
+    pub observer: String,
+    /// The sampling grid.
+    pub grid_nm: GridNm,
+    /// K functions, each sampled on `grid_nm`.
+    pub functions: Vec<Vec<f64>>,
+}
+
+/// A uniform wavelength grid `start_nm..=end_nm` in steps of `step_nm`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GridNm {
+    /// First wavelength (nm).
+    pub start_nm: f64,
+    /// Last wavelength (nm).
+    pub end_nm: f64,
+    /// Step (nm).
+    pub step_nm: f64,
+}
+
+/// The reduced matrix in an RGB working space.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FluorescenceRgb {
+    /// Working space key (`srgb`, `rec2020`, `acescg`).
+    pub space: String,
+    /// 3×3 matrix on linear RGB (row-major).
+    pub matrix: [[f64; 3]; 3],
+    /// K of the basis the matrix was projected from.
+    pub projected_from_k: usize,
+    /// The projection applied.
+    pub equation: String,
+}
+
+/// Resampling of the measured Donaldson matrix onto the working grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FluorescenceResampling {
+    /// Negative entries (measurement noise) clipped to 0.
+    pub clip_negatives: bool,
+    /// Anti-Stokes entries (excitation ≥ emission off the diagonal) zeroed.
+    pub zero_anti_stokes: bool,
+    /// How the diagonal was resampled.
+    pub diagonal: String,
+    /// How the off-diagonal part was resampled.
+    pub off_diagonal: String,
+}
+
+/// ΔE00 of the reduction under one illuminant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FluorescenceDeltaE {
+    /// Illuminant name (or file).
+    pub illuminant: String,
+    /// CIEDE2000 difference, reduced against spectral.
+    pub delta_e00: f64,
+    /// XYZ of the spectral (reference) rendering.
+    pub xyz_reference: [f64; 3],
+    /// XYZ of the reduced rendering.
+    pub xyz_reduced: [f64; 3],
 }
 
 /// The spectral bands of a phosphorescence section.

@@ -85,6 +85,7 @@ pub fn validate_value(value: &Value, file: &str) -> Result<Preset> {
         }
     }
     violations(file, unique)?;
+    violations(file, null_numbers(value))?;
 
     let typed_error = |e: serde_json::Error| Error::SchemaViolation {
         file: file.to_string(),
@@ -99,6 +100,72 @@ pub fn validate_value(value: &Value, file: &str) -> Result<Preset> {
         Preset::Light(l)
     };
     Ok(preset)
+}
+
+/// Most `null` entries listed in one error.
+const MAX_NULLS_LISTED: usize = 8;
+
+/// `null` inside an array of a section: what serde writes for a non-finite number (overflow,
+/// 0/0). A preset's arrays hold numbers (or strings), never nulls, so each is a violation naming
+/// its JSON pointer. The provenance (free-form fit quality) is not checked.
+fn null_numbers(value: &Value) -> Vec<String> {
+    // `strict`: a typed section without optional fields, where any null is a lost number.
+    fn walk(
+        v: &Value,
+        pointer: &mut String,
+        in_array: bool,
+        strict: bool,
+        found: &mut Vec<String>,
+    ) {
+        match v {
+            Value::Null if in_array || strict => found.push(pointer.clone()),
+            Value::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    let len = pointer.len();
+                    pointer.push_str(&format!("/{i}"));
+                    walk(item, pointer, true, strict, found);
+                    pointer.truncate(len);
+                }
+            }
+            Value::Object(map) => {
+                for (k, item) in map {
+                    let len = pointer.len();
+                    pointer.push('/');
+                    pointer.push_str(&k.replace('~', "~0").replace('/', "~1"));
+                    walk(item, pointer, false, strict, found);
+                    pointer.truncate(len);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut found = Vec::new();
+    if let Some(map) = value.as_object() {
+        for (k, v) in map {
+            if k != "provenance" {
+                let strict = k == "fluorescence";
+                walk(v, &mut format!("/{k}"), false, strict, &mut found);
+            }
+        }
+    }
+    let n = found.len();
+    let mut lines: Vec<String> = found
+        .iter()
+        .take(MAX_NULLS_LISTED)
+        .map(|p| {
+            violation(
+                p,
+                "null where a number was expected (a non-finite value — overflow or 0/0 — written as null)",
+            )
+        })
+        .collect();
+    if n > MAX_NULLS_LISTED {
+        lines.push(format!(
+            "  … and {} more null entries",
+            n - MAX_NULLS_LISTED
+        ));
+    }
+    lines
 }
 
 /// Reads the `schema` field and checks it is one this lumifit reads.

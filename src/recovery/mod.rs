@@ -26,6 +26,8 @@
 // `!(a > b)` comparisons deliberately reject NaN along with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod dump;
+
 use crate::error::{Error, Result};
 use crate::fit::regularized::{
     solve_regularized, RegularizedOptions, RegularizedSolution, Smoothness, Weight,

@@ -36,6 +36,9 @@ pub enum Command {
     /// Spectra from captures: recover a light or reflectance spectrum from a photo through the LVF.
     #[command(subcommand)]
     Spectrum(crate::commands::spectrum::SpectrumCommand),
+    /// Afterimages: the Mikamo 2013 luminance and colour transitions, and frames of an image's afterimage.
+    #[command(subcommand)]
+    Afterimage(crate::commands::afterimage::AfterimageCommand),
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),

@@ -6,12 +6,12 @@ use lumifit::colorimetry::cat::Cat;
 use lumifit::colorimetry::delta_e::{delta_e as delta_e_fn, DeltaEMethod};
 use lumifit::colorimetry::lab::{lab_to_lch, lab_to_xyz, lch_to_lab, xyz_to_lab};
 use lumifit::colorimetry::rgb::{rgb_to_xyz, xyz_to_rgb, RgbSpace};
-use lumifit::colorimetry::tristimulus::D65_XY;
-use lumifit::colorimetry::xyy::{xyy_to_xyz, xyz_to_xy, xyz_to_xyy};
-use lumifit::colorimetry::{
-    illuminant_white, sd_to_xyz, Observer, StandardObserver, XyzMethod, XyzOperator,
-};
-use lumifit::io::spectrum_csv;
+use lumifit::colorimetry::summary::{sd_colour, table_csv, xyz_table, SdColour};
+use lumifit::colorimetry::xyy::{xyy_to_xyz, xyz_to_xyy};
+use lumifit::colorimetry::{Observer, StandardObserver, XyzMethod};
+use lumifit::error::ensure_finite;
+use lumifit::io::sources::file_of;
+use lumifit::io::{spectrum_csv, Outputs};
 use serde::Serialize;
 
 use super::{emit, parse_triplet, resolve_illuminant};
@@ -19,19 +19,11 @@ use crate::args::{ConvertArgs, DeltaEArgs, TableArgs, XyzArgs};
 
 #[derive(Serialize)]
 struct XyzReport {
-    #[serde(rename = "XYZ")]
-    xyz: [f64; 3],
-    #[serde(rename = "xyY")]
-    xyy: [f64; 3],
-    #[serde(rename = "Lab")]
-    lab: [f64; 3],
-    #[serde(rename = "sRGB")]
-    srgb: [f64; 3],
+    #[serde(flatten)]
+    colour: SdColour,
     observer: String,
     illuminant: String,
     method: String,
-    #[serde(rename = "white_XYZ")]
-    white_xyz: [f64; 3],
     k: Option<f64>,
 }
 
@@ -41,25 +33,23 @@ pub fn xyz(a: &XyzArgs) -> Result<()> {
     let illuminant = resolve_illuminant(&a.illuminant)?;
     let observer = Observer::standard(StandardObserver::from_name(&a.observer)?)?;
     let method = XyzMethod::from_name(&a.method)?;
-    let t = sd_to_xyz(&sd, observer, &illuminant, method, a.k)
-        .with_context(|| format!("computing XYZ of {}", a.sd.display()))?;
-    let white = illuminant_white(observer, &illuminant, method, sd.wavelengths(), a.k)?;
-    let white_xy = xyz_to_xy(white.xyz, D65_XY);
-    let xyy = xyz_to_xyy(t.xyz, white_xy);
-    // Lab and sRGB of the colour relative to the illuminant's white on the same grid.
-    let lab = t.lab_relative_to(&white)?;
-    let srgb_space = RgbSpace::from_name("srgb")?;
-    let xyz01 = t.xyz.map(|v| v / white.xyz[1]);
-    let srgb = xyz_to_rgb(xyz01, white_xy, &srgb_space, Some(Cat::Cat02), true)?;
+    if let Some(k) = a.k {
+        ensure_finite("--k", &k.to_string(), &[k])?;
+    }
+    let colour = sd_colour(
+        &sd,
+        observer,
+        &illuminant,
+        method,
+        a.k,
+        &a.sd.display().to_string(),
+    )
+    .with_context(|| format!("computing XYZ of {}", a.sd.display()))?;
     let report = XyzReport {
-        xyz: t.xyz,
-        xyy,
-        lab,
-        srgb,
+        colour,
         observer: observer.name().to_string(),
         illuminant: illuminant.name().to_string(),
         method: method.cli_name().to_string(),
-        white_xyz: white.xyz,
         k: a.k,
     };
     emit(&serde_json::to_string_pretty(&report)?)
@@ -67,37 +57,25 @@ pub fn xyz(a: &XyzArgs) -> Result<()> {
 
 /// `lumifit color table`: XYZ, xy and Lab of every column of a spectral table.
 pub fn table(a: &TableArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.sds).inputs(file_of(&a.illuminant));
+    out.declare("--out", &a.out)?;
     let ms = spectrum_csv::read_multi_spectrum(&a.sds)?;
     let illuminant = resolve_illuminant(&a.illuminant)?;
     let observer = Observer::standard(StandardObserver::from_name(&a.observer)?)?;
     let method = XyzMethod::from_name(&a.method)?;
-    let white = illuminant_white(observer, &illuminant, method, ms.wavelengths(), None)?;
-    let white_xy = xyz_to_xy(white.xyz, D65_XY);
     let started = std::time::Instant::now();
-    // One linear operator for the shared grid, then 3·n multiply-adds per spectrum.
-    let op = XyzOperator::new(ms.wavelengths(), observer, &illuminant, method, None)
-        .with_context(|| format!("preparing XYZ weights for {}", a.sds.display()))?;
-    let mut rows = Vec::with_capacity(ms.n_channels());
-    for c in 0..ms.n_channels() {
-        let xyz = op.apply(ms.channel(c))?;
-        let xy = xyz_to_xy(xyz, D65_XY);
-        let lab = xyz_to_lab(xyz.map(|v| v / white.xyz[1]), white_xy)?;
-        rows.push((xyz, xy, lab));
-    }
+    let rows = xyz_table(
+        &ms,
+        observer,
+        &illuminant,
+        method,
+        &a.sds.display().to_string(),
+    )
+    .with_context(|| format!("computing the colour table of {}", a.sds.display()))?;
     let seconds = started.elapsed().as_secs_f64();
-    let mut out = String::from("name,X,Y,Z,x,y,L,a,b\n");
-    for (label, (xyz, xy, lab)) in ms.labels().iter().zip(&rows) {
-        let name = if label.contains(',') || label.contains('"') {
-            format!("\"{}\"", label.replace('"', "\"\""))
-        } else {
-            label.clone()
-        };
-        out.push_str(&format!(
-            "{name},{},{},{},{},{},{},{},{}\n",
-            xyz[0], xyz[1], xyz[2], xy[0], xy[1], lab[0], lab[1], lab[2]
-        ));
-    }
-    lumifit::io::atomic_write(&a.out, out.as_bytes())?;
+    out.stage(&a.out, table_csv(&rows).as_bytes())?;
+    out.commit()?;
     emit(
         &serde_json::json!({
             "spectra": ms.n_channels(),
@@ -119,6 +97,11 @@ pub fn delta_e(a: &DeltaEArgs) -> Result<()> {
     let l2 = parse_triplet("--lab2", &a.lab2)?;
     let method = DeltaEMethod::from_name(&a.method)?;
     let d = delta_e_fn(l1, l2, method);
+    ensure_finite(
+        "delta_e",
+        &format!("--lab1 {} --lab2 {}", a.lab1, a.lab2),
+        &[d],
+    )?;
     emit(&serde_json::json!({ "delta_e": d, "method": a.method }).to_string())
 }
 
@@ -163,6 +146,11 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
         "linear-srgb" => xyz_to_rgb(xyz, w, &srgb, Some(Cat::Cat02), false)?,
         other => anyhow::bail!("--to: unknown representation '{other}'"),
     };
+    ensure_finite(
+        &format!("--to {}", a.to),
+        &format!("--value {}", a.value),
+        &out,
+    )?;
     emit(
         &serde_json::json!({ "from": a.from, "to": a.to, "input": v, "value": out, "white": a.white, "white_xy": w })
             .to_string(),

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use lumifit::colorimetry::rgb::RgbSpace;
 use lumifit::colorimetry::{Observer, StandardObserver};
@@ -13,9 +13,11 @@ use lumifit::fluor::{
     Basis, BasisKind, DonaldsonMatrix, EvalRow, GridIlluminant, Method, OperatorMatrix, Reduction,
     ResampleOptions, WorkingGrid, DEFAULT_ILLUMINANTS, DEFAULT_METHODS,
 };
-use lumifit::io::{read_input, spectrum_csv::read_multi_spectrum};
-use lumifit::plot::{fluor_chart, FluorChart};
-use lumifit::preset::{read_material, write_preset, MaterialPreset, OpenSection, Provenance};
+use lumifit::io::sources::file_of;
+use lumifit::io::{read_input, spectrum_csv::read_multi_spectrum, Outputs};
+use lumifit::plot::{fluor_chart_png, FluorChart};
+use lumifit::preset::fluorescence::{fluorescence_section, ReductionRecord};
+use lumifit::preset::{to_json_string, MaterialPreset, Provenance};
 use lumifit::spectrum::MultiSpectrum;
 use serde_json::{json, Value};
 
@@ -246,7 +248,20 @@ fn chart_for(
     }
 }
 
+/// Registers the illuminant files and a basis file as inputs.
+fn register_common(out: &mut Outputs, illuminants: &[String], bases: &[&str]) {
+    out.inputs(illuminants.iter().filter_map(|n| file_of(n)));
+    out.inputs(bases.iter().filter_map(|n| file_of(n)));
+}
+
 fn run_reduce(a: &ReduceArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.matrix);
+    register_common(&mut out, &a.illuminants, &[&a.basis]);
+    out.declare("--out", &a.out)?;
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
+    }
     let s = setup(&a.common)?;
     let (d, bytes) = load_matrix(&a.matrix)?;
     let op = d.to_operator(&s.grid, s.options);
@@ -262,54 +277,26 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
         basis: basis.clone(),
     };
     let rows = evaluate(&op, std::slice::from_ref(&method), &ills, &s.xyz)?;
-    let worst = rows.iter().map(|r| r.delta_e00).fold(0.0, f64::max);
-
-    let mut section = OpenSection::new();
-    section.insert("method".into(), json!(reduction.key()));
-    section.insert(
-        "paper".into(),
-        json!("Fichet, Belcour & Barla 2024, CGF 43(4)"),
-    );
-    section.insert(
-        "basis".into(),
-        json!({
-            "name": basis.name(),
-            "k": basis.k(),
-            "labels": basis.labels(),
-            "observer": s.observer,
-            "grid_nm": {"start_nm": s.grid.start_nm, "end_nm": s.grid.end_nm, "step_nm": s.grid.step_nm},
-            "functions": (0..basis.k()).map(|k| basis.functions().column(k).iter().copied().collect::<Vec<f64>>()).collect::<Vec<_>>(),
-        }),
-    );
-    section.insert("matrix".into(), json!(rows_of(&red.p)));
-    section.insert("transfer_xyz".into(), json!(rows_of(&red.t)));
-    section.insert("xyz_matrix".into(), json!(p3));
-    section.insert(
-        "rgb".into(),
-        json!({"space": space.key, "matrix": p_rgb, "projected_from_k": basis.k(), "equation": "M_xyz_to_rgb · P_xyz · M_xyz_to_rgb⁻¹ (Eq. 16)"}),
-    );
-    section.insert(
-        "resampling".into(),
-        json!({"clip_negatives": s.options.clip_negatives, "zero_anti_stokes": s.options.zero_anti_stokes,
-               "diagonal": "linear, as a reflectance", "off_diagonal": "bilinear, as a density × step"}),
-    );
-    section.insert(
-        "delta_e00".into(),
-        Value::Array(
-            rows.iter()
-                .map(|r| json!({"illuminant": r.illuminant, "delta_e00": r.delta_e00, "xyz_reference": r.xyz_reference, "xyz_reduced": r.xyz_reduced}))
-                .collect(),
-        ),
-    );
-    section.insert("worst_delta_e00".into(), json!(worst));
+    let section = fluorescence_section(
+        &ReductionRecord {
+            reduced: &red,
+            basis: &basis,
+            observer: &s.observer,
+            grid: &s.grid,
+            xyz_matrix: &p3,
+            rgb_matrix: &p_rgb,
+            space: &space,
+            options: s.options,
+            rows: &rows,
+        },
+        &a.matrix.display().to_string(),
+    )?;
+    let worst = section.worst_delta_e00;
 
     let mut inputs: Vec<(PathBuf, Vec<u8>)> = vec![(a.matrix.clone(), bytes)];
-    let bp = Path::new(&a.basis);
-    if bp.is_file() {
-        inputs.push((
-            bp.to_path_buf(),
-            std::fs::read(bp).with_context(|| format!("reading {}", bp.display()))?,
-        ));
+    if let Some(bp) = file_of(&a.basis) {
+        let (b, _) = read_input(&bp)?;
+        inputs.push((bp, b));
     }
     let refs: Vec<(&Path, &[u8])> = inputs
         .iter()
@@ -326,18 +313,17 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
         reduction.key()
     ));
     preset.fluorescence = Some(section);
-    write_preset(&a.out, &preset)?;
-    read_material(&a.out).with_context(|| format!("reading back {}", a.out.display()))?;
+    // Validated as a reader would before it is staged.
+    out.stage(&a.out, to_json_string(&preset)?.as_bytes())?;
     if let Some(plot) = &a.plot {
-        fluor_chart(
-            plot,
-            &chart_for(
-                &d,
-                vec![(method.name(), basis.labels().to_vec(), red.p.clone())],
-                &rows,
-            ),
-        )?;
+        let chart = chart_for(
+            &d,
+            vec![(method.name(), basis.labels().to_vec(), red.p.clone())],
+            &rows,
+        );
+        out.stage(plot, &fluor_chart_png(&chart)?)?;
     }
+    out.commit()?;
     let mut text = format!(
         "{}: {} ({}×{}), worst ΔE00 {:.3}\n",
         d.name(),
@@ -357,6 +343,12 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
 }
 
 fn run_eval(a: &EvalArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.inputs(&a.matrices);
+    register_common(&mut out, &a.illuminants, &[]);
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
+    }
     let s = setup(&a.common)?;
     let methods = methods_from_names(&a.methods, &s)?;
     let ills = load_illuminants(&a.illuminants, &s.xyz)?;
@@ -389,8 +381,9 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
                 a.matrices.len()
             );
         }
-        fluor_chart(plot, &chart)?;
+        out.stage(plot, &fluor_chart_png(&chart)?)?;
     }
+    out.commit()?;
     if a.json {
         return emit(&serde_json::to_string(&rows)?);
     }

@@ -4,12 +4,12 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use lumifit::capture::Roi;
 use lumifit::io::series::read_frame;
+use lumifit::io::sources::{file_of, resolve_lamp, resolve_passband};
+use lumifit::io::Outputs;
 use lumifit::lvf::fit::Direction;
 use lumifit::lvf::{
-    calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, FitOptions, Lamp, MapChoice,
-    Passband,
+    calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, FitOptions, MapChoice,
 };
 
 use super::emit;
@@ -111,43 +111,31 @@ pub fn run(cmd: LvfCommand) -> Result<()> {
     }
 }
 
-/// Resolves `--lamp`.
-pub fn resolve_lamp(arg: &str) -> Result<Lamp> {
-    match arg.to_ascii_lowercase().as_str() {
-        "hg" | "mercury" => Ok(Lamp::mercury()),
-        "cfl" => Ok(Lamp::cfl()),
-        _ => {
-            let path = std::path::Path::new(arg);
-            if !path.is_file() {
-                anyhow::bail!("--lamp: '{arg}' is neither hg, cfl nor an existing CSV file wavelength_nm[,relative_power]");
-            }
-            let (bytes, src) = lumifit::io::read_input(path)?;
-            let t = lumifit::table::parse_numeric_csv(&bytes, &src)?;
-            Ok(Lamp::from_table(&t)?)
-        }
-    }
-}
+/// Most bands between 400 and 700 nm: one per nm (an LVF passband is tens of nm wide, so more
+/// bands only repeat the same light).
+const MAX_BANDS: usize = 300;
 
 fn calibrate(a: &CalibrateArgs) -> Result<()> {
     if !(a.fwhm_guess.is_finite() && a.fwhm_guess > 1.0 && a.fwhm_guess < 200.0) {
         anyhow::bail!("--fwhm-guess: {} nm; expected 1–200", a.fwhm_guess);
     }
+    lumifit::limits::check_count(
+        "--bands",
+        a.bands,
+        MAX_BANDS,
+        "one band per nm from 400 to 700 nm",
+    )?;
+    let mut out = Outputs::new();
+    out.input(&a.image);
+    out.inputs(file_of(&a.lamp));
+    out.inputs(file_of(&a.passband));
+    out.declare("--out", &a.out)?;
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
+    }
     let lamp = resolve_lamp(&a.lamp)?;
-    let passband = if a.passband.eq_ignore_ascii_case("gaussian") {
-        Passband::Gaussian
-    } else {
-        let (bytes, src) = lumifit::io::read_input(std::path::Path::new(&a.passband))?;
-        let t = lumifit::table::parse_numeric_csv(&bytes, &src)?;
-        if t.columns.len() < 2 {
-            anyhow::bail!("--passband {src}: expected columns offset_nm,transmission");
-        }
-        Passband::measured(t.columns[0].clone(), t.columns[1].clone())
-            .with_context(|| format!("--passband {src}"))?
-    };
-    let roi = match Roi::parse_rect(&a.roi)? {
-        Roi::Rect { x, y, w, h } => [x, y, w, h],
-        Roi::Mask { .. } => unreachable!("parse_rect returns a rectangle"),
-    };
+    let passband = resolve_passband(&a.passband)?;
+    let roi = super::parse_rect(&a.roi)?;
     let (frame, info) = read_frame(&a.image)?;
     for w in &info.warnings {
         eprintln!("warning: {w}");
@@ -181,10 +169,11 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     let seconds = t.elapsed().as_secs_f64();
     let mut json = serde_json::to_value(&cal)?;
     json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
-    lumifit::io::atomic_write(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    out.stage(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
     if let Some(p) = &a.plot {
-        lumifit::plot::lvf_chart(p, &cal)?;
+        out.stage(p, &lumifit::plot::lvf_chart_png(&cal)?)?;
     }
+    out.commit()?;
     emit(&serde_json::to_string_pretty(&serde_json::json!({
         "out": a.out.display().to_string(),
         "method": cal.method,

@@ -1,6 +1,7 @@
 //! Command implementations: validate arguments into library types, call the library, print or
 //! write the results.
 
+pub mod afterimage;
 pub mod color;
 pub mod demo;
 pub mod fluor;
@@ -14,11 +15,8 @@ pub mod spectrum;
 pub mod synth;
 pub mod synth_lvf;
 
-use std::path::Path;
-
 use anyhow::Result;
 use lumifit::colorimetry::Illuminant;
-use lumifit::io::spectrum_csv;
 
 use crate::args::{Cli, ColorCommand, Command, PresetCommand};
 
@@ -71,8 +69,23 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Series(c) => series::run(c),
         Command::Lvf(c) => lvf::run(c),
         Command::Spectrum(c) => spectrum::run(c),
+        Command::Afterimage(c) => afterimage::run(c),
         Command::Demo(a) => demo::run(&a),
     }
+}
+
+/// A progress bar on standard error for `n` items (`prefix` while running, `items` named).
+pub fn progress_bar(n: usize, prefix: &'static str, items: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(n as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{prefix}} [{{bar:30}}] {{pos}}/{{len}} {items} {{elapsed}}"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_prefix(prefix);
+    bar
 }
 
 /// Writes a line to standard output; a closed pipe (`lumifit … | head`) is not an error.
@@ -85,40 +98,20 @@ pub fn emit(text: &str) -> Result<()> {
     }
 }
 
-/// An illuminant given as a CIE name, `daylight:<CCT K>` (CIE D-series of that correlated colour
-/// temperature), `blackbody:<T K>` (Planck, 360–830 nm at 1 nm) or a CSV file.
+/// `--illuminant`/`--source`: a CIE name, `daylight:<K>`, `blackbody:<K>` or a CSV file (see
+/// [`lumifit::io::sources::resolve_illuminant`]).
 pub fn resolve_illuminant(arg: &str) -> Result<Illuminant> {
-    let lower = arg.to_ascii_lowercase();
-    for (prefix, daylight) in [("daylight:", true), ("blackbody:", false)] {
-        if let Some(rest) = lower.strip_prefix(prefix) {
-            let t: f64 = rest.trim().trim_end_matches('k').parse().map_err(|_| {
-                anyhow::anyhow!("--illuminant: '{arg}': expected a temperature in K after '{prefix}', e.g. {prefix}5000")
-            })?;
-            let sd = if daylight {
-                lumifit::colorimetry::daylight::sd_d_series_from_cct(t)?
-            } else {
-                let shape = lumifit::spectrum::SpectralShape::new(360.0, 830.0, 1.0)?;
-                lumifit::colorimetry::blackbody::sd_blackbody(t, &shape)?
-            };
-            let ill = Illuminant::from_spectrum(arg, sd);
-            // colour builds D-series spectra with linear interpolation, like the CIE tables.
-            return Ok(if daylight {
-                ill.with_interpolator(lumifit::math::interpolation::Interpolator::Linear)
-            } else {
-                ill
-            });
-        }
-    }
-    let path = Path::new(arg);
-    let looks_like_file = path.is_file()
-        || arg == "-"
-        || arg.to_ascii_lowercase().ends_with(".csv")
-        || arg.contains(std::path::MAIN_SEPARATOR);
-    if looks_like_file {
-        let sd = spectrum_csv::read_spectrum(path)?;
-        Ok(Illuminant::from_spectrum(arg, sd))
-    } else {
-        Ok(Illuminant::standard(arg)?)
+    Ok(lumifit::io::sources::resolve_illuminant(
+        "--illuminant",
+        arg,
+    )?)
+}
+
+/// `--roi x,y,w,h` as a rectangle `[x, y, w, h]`.
+pub fn parse_rect(s: &str) -> Result<[usize; 4]> {
+    match lumifit::capture::Roi::parse_rect(s)? {
+        lumifit::capture::Roi::Rect { x, y, w, h } => Ok([x, y, w, h]),
+        _ => anyhow::bail!("--roi: expected a rectangle x,y,w,h"),
     }
 }
 

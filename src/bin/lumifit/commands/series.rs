@@ -1,12 +1,15 @@
 //! `lumifit series inspect|extract`: photo series (manifest CSV or folder) to per-frame metadata
 //! and region curves in relative radiance.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use lumifit::capture::{parse_datetime, Roi};
-use lumifit::io::series::{load_series, read_frame, LoadedSeries, SeriesOptions};
+use lumifit::io::series::{
+    curve_csv, load_series, read_mask, series_frame_files, LoadedSeries, SeriesOptions,
+};
+use lumifit::io::Outputs;
 
 use super::emit;
 
@@ -66,7 +69,14 @@ pub fn run(cmd: SeriesCommand) -> Result<()> {
     }
 }
 
-fn load(a: &SeriesArgs) -> Result<LoadedSeries> {
+/// Registers the series' manifest, frames and darks as inputs; returns the number of frames.
+fn register(a: &SeriesArgs, out: &mut Outputs) -> Result<usize> {
+    let frames = series_frame_files(&a.series)?;
+    out.input(&a.series).inputs(&frames).inputs(&a.dark);
+    Ok(frames.len())
+}
+
+fn load(a: &SeriesArgs, n_frames: usize) -> Result<LoadedSeries> {
     let t0_s = match &a.t0 {
         None => None,
         Some(s) => Some(parse_datetime(s).ok_or_else(|| {
@@ -77,20 +87,7 @@ fn load(a: &SeriesArgs) -> Result<LoadedSeries> {
         t0_s,
         darks: a.dark.clone(),
     };
-    let n = if a.series.is_dir() {
-        std::fs::read_dir(&a.series).map(|d| d.count()).unwrap_or(0)
-    } else {
-        std::fs::read_to_string(&a.series)
-            .map(|s| s.lines().count().saturating_sub(1))
-            .unwrap_or(0)
-    };
-    let bar = indicatif::ProgressBar::new(n as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar.set_prefix("decoding");
+    let bar = super::progress_bar(n_frames, "decoding", "frames");
     let loaded = load_series(&a.series, &options, &|| bar.inc(1));
     bar.finish_and_clear();
     let loaded = loaded.with_context(|| format!("loading series {}", a.series.display()))?;
@@ -101,7 +98,8 @@ fn load(a: &SeriesArgs) -> Result<LoadedSeries> {
 }
 
 fn inspect(a: &InspectArgs) -> Result<()> {
-    let loaded = load(&a.series)?;
+    let n = register(&a.series, &mut Outputs::new())?;
+    let loaded = load(&a.series, n)?;
     let rows: Vec<serde_json::Value> = loaded
         .series
         .frames()
@@ -154,45 +152,20 @@ fn inspect(a: &InspectArgs) -> Result<()> {
     emit(out.trim_end())
 }
 
-fn read_mask(path: &Path) -> Result<Roi> {
-    let (frame, _) = read_frame(path)?;
-    let inside = frame
-        .data()
-        .chunks(3)
-        .map(|p| p.iter().any(|v| *v > 0.0))
-        .collect();
-    Ok(Roi::Mask {
-        width: frame.width,
-        height: frame.height,
-        inside,
-        name: path.display().to_string(),
-    })
-}
-
 fn extract(a: &ExtractArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    let n = register(&a.series, &mut out)?;
+    out.inputs(&a.mask);
+    out.declare("--out", &a.out)?;
     let roi = match (&a.roi, &a.mask) {
         (Some(r), _) => Roi::parse_rect(r)?,
         (None, Some(m)) => read_mask(m)?,
         (None, None) => anyhow::bail!("give --roi x,y,w,h or --mask FILE"),
     };
-    let loaded = load(&a.series)?;
+    let loaded = load(&a.series, n)?;
     let curve = loaded.series.extract(&roi)?;
-    let mut csv = String::from("time_s,r,g,b,r_std,g_std,b_std,n_pixels,n_saturated\n");
-    for s in &curve {
-        csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{}\n",
-            s.time_s,
-            s.mean[0],
-            s.mean[1],
-            s.mean[2],
-            s.std[0],
-            s.std[1],
-            s.std[2],
-            s.n_pixels,
-            s.n_saturated
-        ));
-    }
-    lumifit::io::atomic_write(&a.out, csv.as_bytes())?;
+    out.stage(&a.out, curve_csv(&curve).as_bytes())?;
+    out.commit()?;
     emit(&serde_json::to_string_pretty(&serde_json::json!({
         "out": a.out.display().to_string(),
         "frames": curve.len(),

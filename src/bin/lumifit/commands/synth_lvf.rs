@@ -2,14 +2,16 @@
 //! true map; `lumifit synth lvf-capture`: a continuous spectrum (light source, or reflectance
 //! under an illuminant) through an optional colour gel and the LVF.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{ArgGroup, Args, Subcommand};
+use lumifit::io::camera::read_camera;
+use lumifit::io::lvf_model::read_lvf_model;
+use lumifit::io::sources::{file_of, resolve_lamp};
+use lumifit::io::Outputs;
 use lumifit::lvf::capture_synth::{render_lvf_capture, CaptureLight, Exposure, LvfCaptureSpec};
-use lumifit::lvf::synth::{camera_from_csv, default_camera};
-use lumifit::lvf::{render_lvf, Axis, LvfGeometry, LvfSynthSpec};
-use lumifit::spectrum::MultiSpectrum;
+use lumifit::lvf::{render_lvf, Axis, LvfSynthSpec};
 
 use super::emit;
 use super::lvf::AxisArg;
@@ -119,102 +121,38 @@ pub fn run(cmd: LvfSynthCommand) -> Result<()> {
     }
 }
 
+/// Most pixels of a synthetic image: 100 megapixels (twice a full-frame camera's sensor; the
+/// frames lumifit reads from RAW are half that resolution).
+const MAX_PIXELS: usize = 100_000_000;
+/// Bytes per pixel while rendering and encoding: the f32 RGB frame (12), its saturation mask
+/// (1), the 16-bit copy (6) and the encoded TIFF (6).
+const BYTES_PER_PIXEL: u128 = 25;
+
+/// Parses `WxH` and bounds it (pixels and memory) before anything is allocated.
 fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
-    s.split_once(['x', 'X'])
+    let (w, h) = s
+        .split_once(['x', 'X'])
         .and_then(|(w, h)| {
             Some((
                 w.trim().parse::<usize>().ok()?,
                 h.trim().parse::<usize>().ok()?,
             ))
         })
-        .ok_or_else(|| anyhow::anyhow!("{flag}: '{s}' is not WxH, e.g. 1200x160"))
+        .ok_or_else(|| anyhow::anyhow!("{flag}: '{s}' is not WxH, e.g. 1200x160"))?;
+    let pixels = w.saturating_mul(h);
+    lumifit::limits::check_memory(flag, s, pixels as u128, BYTES_PER_PIXEL)?;
+    lumifit::limits::check_count(
+        &format!("{flag} {s}"),
+        pixels,
+        MAX_PIXELS,
+        "pixels of a synthetic image",
+    )?;
+    Ok((w, h))
 }
 
-fn read_camera(path: Option<&Path>) -> Result<MultiSpectrum> {
-    Ok(match path {
-        None => default_camera()?,
-        Some(p) => {
-            let (bytes, src) = lumifit::io::read_input(p)?;
-            camera_from_csv(&bytes, &src)?
-        }
-    })
-}
-
-/// The LVF's geometry as the capture synthesiser needs it.
-struct LvfModel {
-    axis: Axis,
-    map: Vec<f64>,
-    fwhm_nm: f64,
-    size: Option<(usize, usize)>,
-}
-
-/// Reads `--lvf`: a synthetic truth (`lumifit.lvf-truth/1`, `lumifit.lvf-capture-truth/1`) or a
-/// calibration (`lumifit.lvf/1`).
-fn read_lvf_model(path: &Path) -> Result<LvfModel> {
-    let (bytes, src) = lumifit::io::read_input(path)?;
-    let v: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
-        lumifit::Error::parse(
-            &src,
-            e.line(),
-            format!("not JSON: {e}; expected an lvf.json or an LVF truth JSON"),
-        )
-    })?;
-    let schema = v.get("schema").and_then(|s| s.as_str()).unwrap_or("");
-    match schema {
-        "lumifit.lvf/1" => {
-            let g = LvfGeometry::from_json(&bytes, &src)?;
-            Ok(LvfModel {
-                axis: g.axis,
-                map: g.map,
-                fwhm_nm: g.fwhm_nm,
-                size: None,
-            })
-        }
-        "lumifit.lvf-truth/1" | "lumifit.lvf-capture-truth/1" => {
-            let bad = |field: &str, expected: &str| {
-                lumifit::Error::parse(&src, 0, format!("field '{field}': expected {expected}"))
-            };
-            let axis = match v.get("axis").and_then(|a| a.as_str()) {
-                Some("x") => Axis::X,
-                Some("y") => Axis::Y,
-                _ => return Err(bad("axis", "\"x\" or \"y\"").into()),
-            };
-            let map: Vec<f64> = v
-                .get("map")
-                .and_then(|m| m.get("coefficients"))
-                .and_then(|c| c.as_array())
-                .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
-                .unwrap_or_default();
-            if map.len() < 2 {
-                return Err(bad("map.coefficients", "at least 2 numbers").into());
-            }
-            let fwhm_nm = v
-                .get("fwhm_nm")
-                .and_then(|f| f.as_f64())
-                .filter(|f| *f > 0.0 && f.is_finite())
-                .ok_or_else(|| bad("fwhm_nm", "a positive number"))?;
-            let size = v
-                .get("size")
-                .and_then(|s| s.as_array())
-                .filter(|a| a.len() == 2)
-                .and_then(|a| Some((a[0].as_u64()? as usize, a[1].as_u64()? as usize)))
-                .ok_or_else(|| bad("size", "[width, height]"))?;
-            Ok(LvfModel {
-                axis,
-                map,
-                fwhm_nm,
-                size: Some(size),
-            })
-        }
-        other => Err(lumifit::Error::parse(
-            &src,
-            0,
-            format!(
-                "field 'schema' is '{other}'; expected 'lumifit.lvf/1' (lvf calibrate) or 'lumifit.lvf-truth/1' (synth lvf-hg --truth)"
-            ),
-        )
-        .into()),
-    }
+/// The file of `--filter FILE.csv[:CODE]`.
+fn filter_file(arg: &str) -> Option<std::path::PathBuf> {
+    file_of(arg).or_else(|| arg.rsplit_once(':').and_then(|(f, _)| file_of(f)))
 }
 
 fn parse_exposure(s: &str) -> Result<Exposure> {
@@ -227,34 +165,21 @@ fn parse_exposure(s: &str) -> Result<Exposure> {
     }
 }
 
-/// Fails unless the directory that will hold `path` exists, so nothing is written on error.
-fn check_out_dir(flag: &str, path: &Path) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        anyhow::bail!(
-            "{flag}: output directory '{}' does not exist",
-            dir.display()
-        );
-    }
-    Ok(())
-}
-
 fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
-    check_out_dir("--out", &a.out)?;
+    let mut out = Outputs::new();
+    out.inputs(a.spectrum.iter().chain(&a.reflectance).chain(&a.camera));
+    out.input(&a.lvf);
+    out.inputs(a.illuminant.as_deref().and_then(file_of));
+    out.inputs(a.filter.as_deref().and_then(filter_file));
+    out.declare("--out", &a.out)?;
     if let Some(t) = &a.truth {
-        check_out_dir("--truth", t)?;
-        if t == &a.out {
-            anyhow::bail!("--truth and --out name the same file '{}'", t.display());
-        }
+        out.declare("--truth", t)?;
     }
     let exposure = parse_exposure(&a.exposure)?;
     let model = read_lvf_model(&a.lvf).with_context(|| format!("--lvf {}", a.lvf.display()))?;
     let (width, height) = match (&a.size, model.size) {
         (Some(s), _) => parse_size("--size", s)?,
-        (None, Some(s)) => s,
+        (None, Some((w, h))) => parse_size("--size", &format!("{w}x{h}"))?,
         (None, None) => anyhow::bail!(
             "--size: required with an lvf.json from 'lvf calibrate' ({} holds no image size); give the size of the calibrated image, e.g. --size 1200x160",
             a.lvf.display()
@@ -289,34 +214,29 @@ fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
         light,
         filter,
         filter_name,
-        camera: read_camera(a.camera.as_deref())?,
+        camera: read_camera(a.camera.as_deref())?.curves,
         noise: a.noise,
         vignetting: a.vignetting,
         seed: a.seed,
         exposure,
     };
     let (frame, truth) = render_lvf_capture(&spec)?;
-    let tiff = lumifit::io::image::frame_to_tiff16(&frame)?;
     let json = serde_json::to_string_pretty(&truth)?;
-    lumifit::io::atomic_write(&a.out, &tiff)?;
+    out.stage(&a.out, &lumifit::io::image::frame_to_tiff16(&frame)?)?;
     if let Some(t) = &a.truth {
-        lumifit::io::atomic_write(t, json.as_bytes())?;
+        out.stage(t, json.as_bytes())?;
     }
+    out.commit()?;
     emit(&json)
 }
 
 fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
-    let (w, h) = a
-        .size
-        .split_once(['x', 'X'])
-        .and_then(|(w, h)| {
-            Some((
-                w.trim().parse::<usize>().ok()?,
-                h.trim().parse::<usize>().ok()?,
-            ))
-        })
-        .ok_or_else(|| anyhow::anyhow!("--size: '{}' is not WxH, e.g. 1200x160", a.size))?;
-    let camera = read_camera(a.camera.as_deref())?;
+    let mut out = Outputs::new();
+    out.inputs(&a.camera);
+    out.inputs(file_of(&a.lamp));
+    out.declare("--out", &a.out)?;
+    out.declare("--truth", &a.truth)?;
+    let (w, h) = parse_size("--size", &a.size)?;
     let spec = LvfSynthSpec {
         width: w,
         height: h,
@@ -327,16 +247,16 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         nm_at_start: a.nm_at_start,
         nm_per_px: a.nm_per_px,
         fwhm_nm: a.fwhm,
-        lamp: super::lvf::resolve_lamp(&a.lamp)?,
-        camera,
+        lamp: resolve_lamp(&a.lamp)?,
+        camera: read_camera(a.camera.as_deref())?.curves,
         noise: a.noise,
         vignetting: a.vignetting,
         seed: a.seed,
     };
     let (frame, truth) = render_lvf(&spec)?;
-    let tiff = lumifit::io::image::frame_to_tiff16(&frame)?;
-    lumifit::io::atomic_write(&a.out, &tiff)?;
     let json = serde_json::to_string_pretty(&truth)?;
-    lumifit::io::atomic_write(&a.truth, json.as_bytes())?;
+    out.stage(&a.out, &lumifit::io::image::frame_to_tiff16(&frame)?)?;
+    out.stage(&a.truth, json.as_bytes())?;
+    out.commit()?;
     emit(&json)
 }

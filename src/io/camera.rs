@@ -1,0 +1,153 @@
+//! Camera spectral sensitivities: the one reader for `--camera FILE.csv` in every command.
+//!
+//! A camera table is a CSV `wavelength_nm,r,g,b` (header row, `#` comments, BOM and CRLF accepted,
+//! through [`crate::table::parse_numeric_csv`], which also refuses NaN/inf and duplicate
+//! columns). One set of checks for every command: exactly three channels, strictly increasing
+//! wavelengths ([`MultiSpectrum::from_table`]) and no negative sensitivity (an error naming the
+//! file, the line and the channel). Without a file the embedded default camera is used
+//! (`calib/camera_default.csv`, Nikon 5100 NPL measurements).
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::math::interpolation::Interpolator;
+use crate::spectrum::{MultiSpectrum, Spectrum};
+use crate::table::parse_numeric_csv;
+
+/// Name under which the embedded default camera appears in messages and provenance.
+pub const DEFAULT_CAMERA_NAME: &str = "calib/camera_default.csv";
+
+/// Camera sensitivities with the name of where they came from.
+#[derive(Debug, Clone)]
+pub struct Camera {
+    /// The three channels r, g, b on the table's wavelengths.
+    pub curves: MultiSpectrum,
+    /// The file name (or [`DEFAULT_CAMERA_NAME`]).
+    pub source: String,
+}
+
+/// Parses a camera table (see the module docs); `source` names it in errors.
+///
+/// # Errors
+/// [`Error::Parse`] naming the source and line for malformed CSV, a column count other than
+/// four, or a negative sensitivity; the spectrum errors of [`MultiSpectrum::from_table`].
+pub fn parse_camera(bytes: &[u8], source: &str) -> Result<MultiSpectrum> {
+    let t = parse_numeric_csv(bytes, source)?;
+    if t.columns.len() != 4 {
+        return Err(Error::parse(
+            source,
+            t.lines.first().map_or(0, |l| l.saturating_sub(1)),
+            format!(
+                "{} columns; expected wavelength_nm,r,g,b (camera sensitivities)",
+                t.columns.len()
+            ),
+        ));
+    }
+    for (c, col) in t.columns.iter().enumerate().skip(1) {
+        if let Some(i) = col.iter().position(|v| *v < 0.0) {
+            return Err(Error::parse(
+                source,
+                t.lines[i],
+                format!(
+                    "{} sensitivity {} is negative; expected values ≥ 0",
+                    t.header.get(c).map_or("channel", |s| s.as_str()),
+                    col[i]
+                ),
+            ));
+        }
+    }
+    MultiSpectrum::from_table(&t)
+}
+
+/// Reads `--camera` (`None`: the embedded default camera).
+///
+/// # Errors
+/// [`Error::Io`] naming the file when it cannot be read; the errors of [`parse_camera`].
+pub fn read_camera(path: Option<&Path>) -> Result<Camera> {
+    match path {
+        None => Ok(Camera {
+            curves: parse_camera(
+                crate::lvf::synth::DEFAULT_CAMERA_CSV.as_bytes(),
+                DEFAULT_CAMERA_NAME,
+            )?,
+            source: DEFAULT_CAMERA_NAME.to_string(),
+        }),
+        Some(p) => {
+            let (bytes, source) = super::read_input(p)?;
+            Ok(Camera {
+                curves: parse_camera(&bytes, &source)?,
+                source,
+            })
+        }
+    }
+}
+
+impl Camera {
+    /// The three channels sampled linearly on `grid_nm`, which must lie inside the table's range.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] naming the camera's range and the grid's when the grid reaches
+    /// beyond the table.
+    pub fn on_grid(&self, grid_nm: &[f64]) -> Result<[Vec<f64>; 3]> {
+        let wl = self.curves.wavelengths();
+        let (lo, hi) = (wl[0], wl[wl.len() - 1]);
+        let (g0, g1) = match (grid_nm.first(), grid_nm.last()) {
+            (Some(a), Some(b)) => (*a, *b),
+            _ => return Err(Error::invalid("--grid", "empty wavelength grid")),
+        };
+        if g0 < lo - 1e-9 || g1 > hi + 1e-9 {
+            return Err(Error::invalid(
+                "--camera",
+                format!(
+                    "{}: covers {lo}–{hi} nm; the grid needs {g0}–{g1} nm (pass --grid inside the camera's range)",
+                    self.source
+                ),
+            ));
+        }
+        let channel = |c: usize| -> Result<Vec<f64>> {
+            let sd = Spectrum::new("camera", wl.to_vec(), self.curves.channel(c).to_vec())?;
+            sd.values_at(grid_nm, Interpolator::Linear)
+        };
+        Ok([channel(0)?, channel(1)?, channel(2)?])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_camera_has_three_non_negative_channels() {
+        let cam = read_camera(None).unwrap();
+        assert_eq!(cam.curves.n_channels(), 3);
+        assert_eq!(cam.source, DEFAULT_CAMERA_NAME);
+    }
+
+    #[test]
+    fn a_negative_sensitivity_is_refused_with_its_line_and_channel() {
+        let csv = b"wavelength_nm,r,g,b\n400,0.1,0.2,0.3\n410,0.1,-0.2,0.3\n";
+        let e = parse_camera(csv, "cam.csv").unwrap_err().to_string();
+        assert!(
+            e.contains("cam.csv") && e.contains("line 3") && e.contains("g"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_accepted_and_two_channels_are_refused() {
+        let csv = b"\xEF\xBB\xBFwavelength_nm,r,g,b\n400,0.1,0.2,0.3\n410,0.1,0.2,0.3\n";
+        assert_eq!(parse_camera(csv, "bom.csv").unwrap().n_channels(), 3);
+        let e = parse_camera(b"wavelength_nm,r,g\n400,1,1\n410,1,1\n", "two.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("expected wavelength_nm,r,g,b"), "{e}");
+    }
+
+    #[test]
+    fn a_grid_beyond_the_camera_is_refused() {
+        let cam = read_camera(None).unwrap();
+        assert!(cam.on_grid(&[100.0, 200.0]).is_err());
+        let g = cam.on_grid(&[450.0, 550.0, 650.0]).unwrap();
+        assert_eq!(g[1].len(), 3);
+    }
+}
