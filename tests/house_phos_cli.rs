@@ -488,3 +488,46 @@ fn a_simulation_that_overflows_is_an_error_naming_the_history_not_a_csv_of_nan()
         .unwrap()
         .starts_with("time_s,"));
 }
+
+#[test]
+fn a_series_fit_refuses_to_write_over_one_of_its_frames() {
+    let d = tempfile::tempdir().unwrap();
+    let s = d.path().join("s");
+    ok(&lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        "green_paint",
+        "--seed",
+        "2",
+        "--size",
+        "8x8",
+        "--frames",
+        "6",
+        "--out",
+        &s.to_string_lossy(),
+    ]));
+    let frame = s.join("frame_0000.tif");
+    let before = std::fs::read(&frame).unwrap();
+    let manifest = s.join("manifest.csv").to_string_lossy().to_string();
+    let o = lumifit(&[
+        "phos",
+        "fit-decay",
+        &manifest,
+        "--roi",
+        "0,0,4,4",
+        "--out",
+        &frame.to_string_lossy(),
+    ]);
+    assert_rejected(&o, &["--out", "frame_0000.tif"]);
+    let o = lumifit(&[
+        "phos",
+        "fit-decay",
+        &s.to_string_lossy(),
+        "--per-pixel",
+        "--out",
+        &s.to_string_lossy(),
+    ]);
+    assert_rejected(&o, &["--out"]);
+    assert_eq!(std::fs::read(&frame).unwrap(), before);
+}

@@ -477,6 +477,24 @@ pub fn load_series(
     Ok(LoadedSeries { series, warnings })
 }
 
+/// Every file a photo series reads (the manifest or folder first, then each frame), for
+/// registering inputs before any output is declared. Errors as [`load_series`]'s listing.
+pub fn series_files(path: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = vec![path.to_path_buf()];
+    if path.is_dir() {
+        out.extend(directory_frames(path)?);
+    } else {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        out.extend(
+            parse_manifest(&bytes, &path.display().to_string(), base)?
+                .into_iter()
+                .map(|r| r.file),
+        );
+    }
+    Ok(out)
+}
+
 /// A series manifest `file,time_s,exposure_s,iso,f_number` (what [`parse_manifest`] reads):
 /// rows of (file, time in s, exposure in s, ISO, f-number).
 pub fn manifest_csv(rows: &[(String, f64, f64, f64, f64)]) -> String {

@@ -9,7 +9,7 @@ use lumifit::capture::{PhotoSeries, Roi};
 use lumifit::io::phos_formats::{
     read_band_camera, read_curve, BatchCsv, BatchResultRow, HistoryCsv, SimulationCsv,
 };
-use lumifit::io::series::{load_series, SeriesOptions};
+use lumifit::io::series::{load_series, series_files, SeriesOptions};
 use lumifit::io::spectrum_csv::{read_multi_spectrum, read_spectrum};
 use lumifit::io::Outputs;
 use lumifit::phosphor::{
@@ -285,20 +285,18 @@ fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
     }
 }
 
-/// Inputs and outputs of a one-curve fit (curve file or series, spectrum, camera).
-fn fit_outputs(input: &Path, a: &FitDecayArgs, darks: &[PathBuf]) -> Result<Outputs> {
+/// Inputs and outputs of a one-curve fit: `inputs` (the curve, or the series and its frames and
+/// darks), the spectrum and camera; then `--out` and `--plot`.
+fn fit_outputs(inputs: &[PathBuf], a: &FitDecayArgs) -> Result<Outputs> {
     let mut out = Outputs::new();
-    out.input(input)
-        .inputs(darks)
-        .inputs(&a.spectrum)
-        .inputs(&a.camera);
+    out.inputs(inputs).inputs(&a.spectrum).inputs(&a.camera);
     out.declare("--out", &a.out)?;
     declare_plot(&mut out, &a.plot)?;
     Ok(out)
 }
 
 fn single(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
-    let out = fit_outputs(path, a, &[])?;
+    let out = fit_outputs(&[path.to_path_buf()], a)?;
     let curve = read_curve(path)?;
     fit_and_write(out, path, curve, a, opts, None)
 }
@@ -323,7 +321,9 @@ fn load_series_with_bar(path: &Path, darks: &[PathBuf]) -> Result<PhotoSeries> {
 }
 
 fn roi_fit(series_path: &Path, roi: &str, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
-    let out = fit_outputs(series_path, a, &a.dark)?;
+    let mut inputs = series_files(series_path)?;
+    inputs.extend(a.dark.iter().cloned());
+    let out = fit_outputs(&inputs, a)?;
     let roi = Roi::parse_rect(roi)?;
     let series = load_series_with_bar(series_path, &a.dark)?;
     let curve = pipe::roi_curve(&series, &roi, &series_path.display().to_string())?;
@@ -428,7 +428,7 @@ fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Re
         bail!("--spectrum and --plot apply to one curve; with --per-pixel the maps are the output");
     }
     let mut out = Outputs::new();
-    out.input(series_path).inputs(&a.dark);
+    out.inputs(series_files(series_path)?).inputs(&a.dark);
     out.declare_dir("--out", &a.out)?;
     let series = load_series_with_bar(series_path, &a.dark)?;
     let Some(first) = series.frames().first() else {
