@@ -3,19 +3,11 @@
 use std::process::Command;
 
 use lumifit::phosphor::{final_state, simulate, table1_material, Integrator, Segment};
+use lumifit::pipeline::phos::{compare_history, compare_integrators, max_relative_error};
 
+/// The comparison's history (600 s under |E| = `scale`, 600 s dark), from the library.
 fn history(scale: f64) -> Vec<Segment> {
-    let nb = table1_material("green_paint").unwrap().material.bands.len();
-    vec![
-        Segment {
-            duration_s: 600.0,
-            irradiance: vec![scale / (nb as f64).sqrt(); nb],
-        },
-        Segment {
-            duration_s: 600.0,
-            irradiance: vec![0.0; nb],
-        },
-    ]
+    compare_history(&table1_material("green_paint").unwrap().material, scale)
 }
 
 fn max_error(integ: Integrator, dt: f64, scale: f64) -> f64 {
@@ -74,4 +66,34 @@ fn compare_integrators_writes_a_table_and_a_plot() {
     assert!(text.starts_with("case,integrator,dt_s,seconds_per_run,max_rel_error"));
     assert_eq!(text.lines().count(), 1 + 2 * 6 * 3);
     assert!(png.is_file());
+}
+
+#[test]
+fn the_library_comparison_ranks_rk4_above_euler_and_flags_the_bright_euler_divergence() {
+    let m = &table1_material("green_paint").unwrap().material;
+    let rows = compare_integrators(m).unwrap();
+    assert_eq!(rows.len(), 2 * 6 * 3);
+    let err = |case: &str, integ: &str, dt: f64| {
+        rows.iter()
+            .find(|r| r.case == case && r.integrator == integ && r.dt_s == dt)
+            .map(|r| r.error)
+            .unwrap()
+    };
+    for r in rows.iter().filter(|r| r.integrator == "exact") {
+        assert_eq!(r.error, 0.0, "{r:?}");
+    }
+    let (rk4, euler) = (
+        err("normal |E|=1", "rk4", 1.0),
+        err("normal |E|=1", "euler", 1.0),
+    );
+    assert!(rk4 < euler / 100.0, "rk4 {rk4}, euler {euler}");
+    // Euler at h = 5 s under |E| = 100 leaves the stable region (h·k_e·|E| > 2)
+    assert!(err("bright |E|=100", "euler", 5.0) >= 1.0);
+    // the error measure: ∞ as soon as a value is not finite
+    let reference = vec![vec![1.0, 2.0]];
+    assert_eq!(max_relative_error(&[vec![1.5, 2.0]], &reference, 2.0), 0.25);
+    assert_eq!(
+        max_relative_error(&[vec![f64::NAN, 2.0]], &reference, 2.0),
+        f64::INFINITY
+    );
 }

@@ -173,10 +173,12 @@ fn design_plot_draws_curves_targets_and_works_with_grid_only() {
 }
 
 #[test]
-fn a_plot_into_a_missing_directory_fails_with_exit_2_and_writes_nothing() {
+fn a_plot_whose_directory_cannot_be_created_fails_with_exit_2_and_writes_nothing() {
     let d = tempfile::tempdir().unwrap();
     let h = write(d.path(), "h8.csv", HISTORY_8);
-    let bad = p(d.path(), "no/such/dir/em.png");
+    // below a regular file no directory can be made: found at commit, after the simulation
+    write(d.path(), "file", "x");
+    let bad = p(d.path(), "file/dir/em.png");
     let o = lumifit(&[
         "phos",
         "simulate",
@@ -189,7 +191,7 @@ fn a_plot_into_a_missing_directory_fails_with_exit_2_and_writes_nothing() {
         "--plot",
         &bad,
     ]);
-    assert_rejected(&o, &["--plot", "em.png", "does not exist"]);
+    assert_rejected(&o, &["file/dir"]);
 
     let (h, t) = design_inputs(d.path());
     let o = lumifit(&[
@@ -202,9 +204,30 @@ fn a_plot_into_a_missing_directory_fails_with_exit_2_and_writes_nothing() {
         "--out",
         &p(d.path(), "m.json"),
         "--plot",
-        &p(d.path(), "missing/design.png"),
+        &p(d.path(), "file/design.png"),
     ]);
-    assert_rejected(&o, &["--plot", "design.png", "does not exist"]);
+    assert_rejected(&o, &["file"]);
     // Only the inputs are there: no CSV, no preset, no stray temporary file.
-    assert_eq!(names(d.path()), ["h.csv", "h8.csv", "t.csv"]);
+    assert_eq!(names(d.path()), ["file", "h.csv", "h8.csv", "t.csv"]);
+}
+
+#[test]
+fn a_plot_into_a_missing_directory_creates_it_with_the_output_as_every_command_does() {
+    let d = tempfile::tempdir().unwrap();
+    let h = write(d.path(), "h8.csv", HISTORY_8);
+    let o = lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        "blue_paint",
+        "--history",
+        &h.to_string_lossy(),
+        "--out",
+        &p(d.path(), "out/em.csv"),
+        "--plot",
+        &p(d.path(), "new/dir/em.png"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(d.path().join("out/em.csv").is_file());
+    assert!(d.path().join("new/dir/em.png").is_file());
 }

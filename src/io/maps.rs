@@ -49,8 +49,23 @@ pub fn write_scalar_map(path: &Path, width: usize, height: usize, values: &[f32]
             got: values.len(),
         });
     }
+    atomic_write(path, &scalar_map_tiff(width, height, values)?)
+}
+
+/// A scalar map (row-major, `width × height`) as float TIFF bytes, value in R = G = B.
+///
+/// # Errors
+/// As [`encode_tiff_rgb32f`].
+pub fn scalar_map_tiff(width: usize, height: usize, values: &[f32]) -> Result<Vec<u8>> {
+    if values.len() != width * height {
+        return Err(Error::ShapeMismatch {
+            what: "scalar map".into(),
+            expected: width * height,
+            got: values.len(),
+        });
+    }
     let rgb: Vec<f32> = values.iter().flat_map(|v| [*v, *v, *v]).collect();
-    atomic_write(path, &encode_tiff_rgb32f(width, height, &rgb)?)
+    encode_tiff_rgb32f(width, height, &rgb)
 }
 
 /// Writes three planar maps (row-major) as the R, G, B channels of one float TIFF.
@@ -66,6 +81,22 @@ pub fn write_rgb_map(path: &Path, width: usize, height: usize, planes: [&[f32]; 
             got: p.len(),
         });
     }
+    atomic_write(path, &rgb_map_tiff(width, height, planes)?)
+}
+
+/// Three planar maps (row-major) as the R, G, B channels of float TIFF bytes.
+///
+/// # Errors
+/// As [`encode_tiff_rgb32f`].
+pub fn rgb_map_tiff(width: usize, height: usize, planes: [&[f32]; 3]) -> Result<Vec<u8>> {
+    let n = width * height;
+    if let Some(p) = planes.iter().find(|p| p.len() != n) {
+        return Err(Error::ShapeMismatch {
+            what: "RGB map".into(),
+            expected: n,
+            got: p.len(),
+        });
+    }
     let rgb: Vec<f32> = (0..n).flat_map(|i| planes.map(|p| p[i])).collect();
-    atomic_write(path, &encode_tiff_rgb32f(width, height, &rgb)?)
+    encode_tiff_rgb32f(width, height, &rgb)
 }

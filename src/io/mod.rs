@@ -21,6 +21,7 @@ pub mod image;
 pub mod lvf_model;
 pub mod maps;
 pub mod output;
+pub mod phos_formats;
 pub mod raw;
 pub mod series;
 pub mod sources;

@@ -1,5 +1,12 @@
-//! Glue that joins two domains (layer L3, above `io`, `preset` and `plot`): each module reads its
-//! inputs through `io`, builds the inputs of one domain from the outputs of another, and returns
-//! typed results for the binary to print or stage. No domain imports another; they meet here.
+//! Glue that joins two domains, or a domain and its files (layer L3, above `io`, `preset` and
+//! `plot`): each module reads its inputs through `io`, builds the inputs of one domain from the
+//! outputs of another, and returns typed results for the binary to print or stage, so that a
+//! command declares flags, calls one function here and prints. No domain imports another; they
+//! meet here.
+//!
+//! - [`acquisition`]: acquisition and colour glue.
+//! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
+//!   comparison, excitation, design reports, synthetic charging images).
 
 pub mod acquisition;
+pub mod phos;

@@ -45,8 +45,8 @@ pub(crate) use text::{draw_text, fit_text, text_width, TextSpec};
 pub use colorchecker::{colorchecker_chart, colorchecker_chart_png, SwatchPatch};
 pub use fluor::{fluor_chart, fluor_chart_png, FluorChart};
 pub use lvf::{lvf_chart, lvf_chart_png};
-pub use phosphor::{decay_chart, integrator_chart};
-pub use phosphor_excitation::excitation_chart;
+pub use phosphor::{decay_chart, decay_chart_png, integrator_chart, integrator_chart_png};
+pub use phosphor_excitation::{excitation_chart, excitation_chart_png};
 pub use spectra::spectra_chart;
 
 /// Font family name under which the embedded DejaVu Sans is registered.

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::{draw_err, render_png, spectral_axes, AxesSpec};
+use super::{draw_err, render_png_bytes, spectral_axes, AxesSpec};
 use crate::error::{Error, Result};
 use crate::phosphor::{DecayCurve, DecayFit};
 
@@ -33,6 +33,11 @@ const STATE_COLOURS: [RGBColor; 3] = [
 /// (lines) per channel with each state's contribution summed over channels (thin lines); bottom,
 /// the residuals per channel.
 pub fn decay_chart(path: &Path, title: &str, curve: &DecayCurve, fit: &DecayFit) -> Result<()> {
+    crate::io::atomic_write(path, &decay_chart_png(title, curve, fit)?)
+}
+
+/// The decay chart of [`decay_chart`] as PNG bytes (nothing written).
+pub fn decay_chart_png(title: &str, curve: &DecayCurve, fit: &DecayFit) -> Result<Vec<u8>> {
     let t = &curve.t_s;
     let (t0, t1) = (t[0], t[t.len() - 1]);
     if !(t1 > t0) {
@@ -77,7 +82,7 @@ pub fn decay_chart(path: &Path, title: &str, curve: &DecayCurve, fit: &DecayFit)
     } else {
         vec!["value"; curve.channels.len()]
     };
-    render_png(path, SIZE_PX, |root| {
+    render_png_bytes(SIZE_PX, |root| {
         let (top, bottom) = root.split_vertically(680);
         let caption = title.to_string();
         let mut chart = spectral_axes(
@@ -177,6 +182,11 @@ pub fn integrator_chart(
     title: &str,
     series: &[(String, Vec<(f64, f64)>)],
 ) -> Result<()> {
+    crate::io::atomic_write(path, &integrator_chart_png(title, series)?)
+}
+
+/// The chart of [`integrator_chart`] as PNG bytes (nothing written).
+pub fn integrator_chart_png(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> Result<Vec<u8>> {
     let clamp = |(t, e): (f64, f64)| -> Option<(f64, f64)> {
         if !(t > 0.0) {
             return None;
@@ -216,7 +226,7 @@ pub fn integrator_chart(
         CHANNEL_COLOURS[1],
         STATE_COLOURS[2],
     ];
-    render_png(path, (1200, 800), |root| {
+    render_png_bytes((1200, 800), |root| {
         let caption = title.to_string();
         let mut chart = spectral_axes(
             &root,

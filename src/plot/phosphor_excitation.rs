@@ -5,7 +5,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::{draw_err, render_png, spectral_axes, AxesSpec};
+use super::{draw_err, render_png_bytes, spectral_axes, AxesSpec};
 use crate::error::{Error, Result};
 use crate::phosphor::excitation::{band_curve, ExcitationFit};
 use crate::phosphor::{BandCamera, Material};
@@ -32,11 +32,21 @@ pub fn excitation_chart(
     camera: &BandCamera,
     fit: &ExcitationFit,
 ) -> Result<()> {
+    crate::io::atomic_write(path, &excitation_chart_png(title, material, camera, fit)?)
+}
+
+/// The chart of [`excitation_chart`] as PNG bytes (nothing written).
+pub fn excitation_chart_png(
+    title: &str,
+    material: &Material,
+    camera: &BandCamera,
+    fit: &ExcitationFit,
+) -> Result<Vec<u8>> {
     if fit.bands.is_empty() {
         return Err(Error::invalid("plot", "no fitted band to draw"));
     }
     let n = fit.bands.len() as u32;
-    render_png(path, (WIDTH_PX, PANEL_PX * n), |root| {
+    render_png_bytes((WIDTH_PX, PANEL_PX * n), |root| {
         let panels = root.split_evenly((n as usize, 1));
         for (panel, b) in panels.iter().zip(&fit.bands) {
             let tmin = b

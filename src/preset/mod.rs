@@ -30,6 +30,7 @@
 pub mod afterimage;
 mod file;
 pub mod fluorescence;
+pub mod phosphor;
 mod provenance;
 pub mod shader;
 mod types;

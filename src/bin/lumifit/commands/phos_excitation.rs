@@ -6,25 +6,23 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgGroup, Args, Subcommand, ValueEnum};
-use lumifit::io::{atomic_write, read_input, spectrum_csv::read_multi_spectrum};
-use lumifit::phosphor::design::{
-    design_from_keyframes, DesignOptions, DesignStage, IrradianceHistory, Keyframe,
+use lumifit::io::phos_formats::{
+    box_camera_csv, parse_band_camera, read_band_camera, ChargingCsv, DesignHistoryCsv,
+    KeyframesCsv, SourceSpectraCsv,
 };
-use lumifit::phosphor::excitation::{
-    apply_excitation, band_means_exact, fit_excitation, synth_charging, unit_length,
-    ChargingSample, ExcitationFit, ExcitationOptions, StateSharing,
+use lumifit::io::series::{charging_series_inputs, load_charging_series, RoiSource};
+use lumifit::io::Outputs;
+use lumifit::phosphor::design::{design_from_keyframes, DesignOptions};
+use lumifit::phosphor::excitation::{synth_charging, ExcitationOptions, StateSharing};
+use lumifit::phosphor::{BandSet, Material};
+use lumifit::pipeline::phos as pipe;
+use lumifit::plot::phosphor_sim::{design_chart_png, DesignChart};
+use lumifit::preset::phosphor::{
+    design_preset, excitation_preset, provenance_of_files, DecayFitRecord,
 };
-use lumifit::phosphor::{BandCamera, BandSet, Material};
-use lumifit::preset::{
-    read_material, write_preset, Bands, InputFile, MaterialPreset, PhosphorescenceSection,
-    PhosphorescentState, Provenance,
-};
-use lumifit::table::parse_numeric_csv;
-use lumifit::Error;
+use lumifit::preset::to_json_string;
 
 use super::phos::resolve_material;
-
-mod series;
 
 /// Excitation-rate fitting and design from keyframes (flattened into `lumifit phos`).
 #[derive(Debug, Subcommand)]
@@ -191,194 +189,55 @@ fn wavelength_ranges(m: &Material) -> Result<&[[f64; 2]]> {
     }
 }
 
-/// Reads `band,charge_s,r,g,b[,std]`.
-fn read_data(path: &Path, n_bands: usize) -> Result<Vec<ChargingSample>> {
-    let (bytes, source) = read_input(path)?;
-    let t = parse_numeric_csv(&bytes, &source)?;
-    let col = |name: &str| {
-        t.column_index(name).ok_or_else(|| {
-            Error::parse(
-                &source,
-                1,
-                format!(
-                    "no '{name}' column; expected header 'band,charge_s,r,g,b' (optional 'std')"
-                ),
-            )
-        })
-    };
-    let (cb, ct, cr, cg, cbl) = (
-        col("band")?,
-        col("charge_s")?,
-        col("r")?,
-        col("g")?,
-        col("b")?,
-    );
-    let cs = t.column_index("std");
-    let mut out = Vec::with_capacity(t.n_rows());
-    for i in 0..t.n_rows() {
-        let line = t.lines[i];
-        let b = t.columns[cb][i];
-        if b.fract() != 0.0 || b < 1.0 || b > n_bands as f64 {
-            return Err(Error::parse(
-                &source,
-                line,
-                format!("band {b}; expected an integer from 1 to {n_bands} (the material's bands)"),
-            )
-            .into());
-        }
-        let ts = t.columns[ct][i];
-        if ts < 0.0 {
-            return Err(Error::parse(
-                &source,
-                line,
-                format!("charge_s {ts}; expected a charging time ≥ 0 s"),
-            )
-            .into());
-        }
-        let sigma = match cs {
-            Some(c) => {
-                let s = t.columns[c][i];
-                if s <= 0.0 {
-                    return Err(
-                        Error::parse(&source, line, format!("std {s}; expected > 0")).into(),
-                    );
-                }
-                Some(s)
-            }
-            None => None,
-        };
-        out.push(ChargingSample {
-            band: b as usize - 1,
-            charge_s: ts,
-            rgb: [t.columns[cr][i], t.columns[cg][i], t.columns[cbl][i]],
-            sigma,
-        });
-    }
-    if out.is_empty() {
-        return Err(Error::parse(
-            &source,
-            0,
-            "no data rows; expected band,charge_s,r,g,b rows",
-        )
-        .into());
-    }
-    Ok(out)
-}
-
-/// Reads `wavelength_nm,band1,…` and returns unit-length per-band irradiance for `bands`.
-fn read_sources(
-    path: &Path,
-    ranges: &[[f64; 2]],
-    bands: &[usize],
-) -> Result<Vec<(usize, Vec<f64>)>> {
-    let (bytes, source) = read_input(path)?;
-    let t = parse_numeric_csv(&bytes, &source)?;
-    let Some(wi) = t.column_index("wavelength_nm") else {
-        return Err(Error::parse(
-            &source,
-            1,
-            "no 'wavelength_nm' column; expected 'wavelength_nm,band1,band2,…'",
-        )
-        .into());
-    };
-    let wl = &t.columns[wi];
-    for r in 1..wl.len() {
-        if wl[r] <= wl[r - 1] {
-            return Err(Error::parse(
-                &source,
-                t.lines[r],
-                format!(
-                    "wavelength {} nm after {} nm; expected strictly increasing",
-                    wl[r],
-                    wl[r - 1]
-                ),
-            )
-            .into());
-        }
-    }
-    let mut out = Vec::new();
-    for &j in bands {
-        let names = [
-            format!("band{}", j + 1),
-            format!("band_{}", j + 1),
-            format!("{}", j + 1),
-        ];
-        let Some(c) = names.iter().find_map(|n| t.column_index(n)) else {
-            return Err(Error::parse(
-                &source,
-                1,
-                format!(
-                    "no column for band {} (header: {}); expected a column 'band{}' with the \
-                     source spectrum that charged that band",
-                    j + 1,
-                    t.header.join(","),
-                    j + 1
-                ),
-            )
-            .into());
-        };
-        let means = band_means_exact(wl, &t.columns[c], ranges)
-            .map_err(|e| anyhow!("{source}: band{}: {e}", j + 1))?;
-        let unit = unit_length(&means).map_err(|e| anyhow!("{source}: band{}: {e}", j + 1))?;
-        out.push((j, unit));
-    }
-    Ok(out)
-}
-
-fn read_camera(path: &Path, m: &Material) -> Result<BandCamera> {
-    let ms = read_multi_spectrum(path)?;
-    BandCamera::for_bands(&m.bands, Some(&ms)).with_context(|| format!("{}", path.display()))
-}
-
 fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
-    let material = resolve_material(&a.material)?;
-    let ranges = wavelength_ranges(&material)?.to_vec();
-    // The charging data: a CSV, or photographs + ROIs (clap makes them exclusive).
-    let (data, data_path, data_files, series_report) = match (&a.data, &a.series) {
-        (Some(d), None) => (
-            read_data(d, ranges.len())?,
-            d.clone(),
-            vec![d.clone()],
-            None,
-        ),
+    let resolved = resolve_material(&a.material)?;
+    let ranges = wavelength_ranges(&resolved.material)?.to_vec();
+    let n_bands = ranges.len();
+    let rois = match (&a.roi, &a.rois) {
+        (Some(r), None) => Some(RoiSource::One(r)),
+        (None, Some(f)) => Some(RoiSource::PerBand(f)),
+        _ => None,
+    };
+    // Every file read is registered before any output is declared.
+    let data_files = match (&a.data, &a.series) {
+        (Some(d), None) => vec![d.clone()],
         (None, Some(m)) => {
-            let rois = match (&a.roi, &a.rois) {
-                (Some(r), None) => series::RoiSource::One(r),
-                (None, Some(f)) => series::RoiSource::PerBand(f),
-                _ => bail!("--series needs either --roi x,y,w,h or --rois FILE.csv"),
+            let Some(r) = &rois else {
+                bail!("--series needs either --roi x,y,w,h or --rois FILE.csv");
             };
-            let s = series::load(m, rois, &a.dark, ranges.len())?;
+            charging_series_inputs(m, r, &a.dark, n_bands)?
+        }
+        _ => bail!("give the charging data either as --data FILE.csv or as --series MANIFEST.csv"),
+    };
+    let mut out = Outputs::new();
+    out.inputs(resolved.path())
+        .inputs(&data_files)
+        .input(&a.source)
+        .input(&a.camera);
+    out.declare("--out", &a.out)?;
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
+    }
+    let decay = match &resolved.preset {
+        Some((p, preset)) => DecayFitRecord::from_preset(preset, &p.display().to_string())?,
+        None => None,
+    };
+    let (data, data_path, series_report) = match (&a.data, &a.series, rois) {
+        (Some(d), None, _) => (ChargingCsv::read(d, n_bands)?, d.clone(), None),
+        (None, Some(m), Some(r)) => {
+            let s = load_charging_series(m, r, &a.dark, n_bands)?;
             for w in &s.warnings {
                 eprintln!("warning: {w}");
             }
-            (s.samples, m.clone(), s.inputs, Some(s.report))
+            (s.samples, m.clone(), Some(s.report))
         }
         _ => bail!("give the charging data either as --data FILE.csv or as --series MANIFEST.csv"),
     };
     let mut bands: Vec<usize> = data.iter().map(|s| s.band).collect();
     bands.sort_unstable();
     bands.dedup();
-    let sources = read_sources(&a.source, &ranges, &bands)?;
-    let camera = read_camera(&a.camera, &material)?;
-    // Λ must be in the camera's units for y = C Λ k_r r to compare with the data; a
-    // `phos fit-decay --spectrum` preset records its RGB fit, which fixes that scale.
-    let mut material = material;
-    let lambda_scale = decay_fit_lambda_scale(&a.material, &material, &camera)?;
-    let rescaled = lambda_scale.filter(|s| (s - 1.0).abs() > LAMBDA_SCALE_TOLERANCE);
-    if let Some(s) = rescaled {
-        eprintln!(
-            "warning: {}: camera·Λ·k_r does not reproduce the preset's own decay fit through {} \
-             (Λ off by a factor {:.4}); Λ rescaled by {s:.6} before fitting k_e",
-            a.material,
-            a.camera.display(),
-            1.0 / s
-        );
-        for st in &mut material.states {
-            for l in &mut st.lambda {
-                *l *= s;
-            }
-        }
-    }
+    let sources = SourceSpectraCsv::read(&a.source)?.unit_irradiance(&ranges, &bands)?;
+    let camera = read_band_camera(&a.camera, &resolved.material.bands)?;
     let opts = ExcitationOptions {
         switch_off_delay_s: a.switch_off_delay_s,
         sharing: match a.states {
@@ -388,191 +247,48 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
         },
         ..ExcitationOptions::default()
     };
-    let fit = fit_excitation(&material, &camera, &sources, &data, &opts)
-        .with_context(|| format!("{}: excitation fit", data_path.display()))?;
-    let updated = apply_excitation(&material, &fit);
-    let mut report = fit_report(&fit);
-    if let Some(obj) = report.as_object_mut() {
-        if let Some(sr) = series_report {
-            obj.insert("series".into(), sr);
-        }
-        if let Some(s) = lambda_scale {
-            obj.insert(
-                "lambda_camera_scale".into(),
-                serde_json::json!({
-                    "factor": s,
-                    "applied": rescaled.is_some(),
-                    "note": "least-squares factor making camera·Λ_i·k_r,i equal the RGB amplitudes of the preset's decay fit (extra.decay_fit); applied to Λ when it differs from 1 by more than 1 %",
-                }),
-            );
-        }
+    let r = pipe::excitation(
+        &resolved.material,
+        decay.as_ref(),
+        &camera,
+        &sources,
+        &data,
+        &opts,
+    )
+    .with_context(|| format!("{}: excitation fit", data_path.display()))?;
+    if let Some(s) = r.rescaled {
+        eprintln!(
+            "warning: {}: camera·Λ·k_r does not reproduce the preset's own decay fit through {} \
+             (Λ off by a factor {:.4}); Λ rescaled by {s:.6} before fitting k_e",
+            a.material,
+            a.camera.display(),
+            1.0 / s
+        );
     }
-    // Provenance: every input with its hash.
-    let mut inputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-    let mat_path = Path::new(&a.material);
-    let base = if mat_path.is_file() {
-        inputs.push((mat_path.to_path_buf(), read_input(mat_path)?.0));
-        Some(read_material(mat_path)?)
-    } else {
-        None
-    };
-    for p in [&a.source, &a.camera] {
-        inputs.push((p.clone(), read_input(p)?.0));
-    }
-    let refs: Vec<(&PathBuf, &[u8])> = inputs.iter().map(|(p, b)| (p, &b[..])).collect();
-    let worst_rms = fit.bands.iter().fold(0.0_f64, |m, b| m.max(b.rms));
-    let mut provenance = Provenance::new("lumifit phos fit-excitation", &refs).with_fit_quality(
-        serde_json::json!({
-            "excitation_rms_max": worst_rms,
-            "product_only_bands": fit.bands.iter().filter(|b| b.product_only).map(|b| b.band + 1).collect::<Vec<_>>(),
-        }),
+    let report = pipe::excitation_report(&r, series_report);
+    // Provenance: the material, the data files (with --series every image), source, camera.
+    let mut files: Vec<PathBuf> = resolved.path().map(Path::to_path_buf).into_iter().collect();
+    files.extend(data_files);
+    files.extend([a.source.clone(), a.camera.clone()]);
+    let provenance = provenance_of_files("lumifit phos fit-excitation", &files)?
+        .with_fit_quality(pipe::excitation_quality(&r.fit));
+    let base = resolved.preset.map(|(_, p)| p);
+    let preset = excitation_preset(
+        base,
+        &r.updated,
+        &ranges,
+        r.rescaled.is_some(),
+        provenance,
+        report.clone(),
     );
-    // The data files (with --series possibly many large images) are hashed one at a time and
-    // listed after the material.
-    let data_inputs = data_files
-        .iter()
-        .map(InputFile::from_file)
-        .collect::<lumifit::Result<Vec<_>>>()?;
-    let at = usize::from(base.is_some());
-    provenance.inputs.splice(at..at, data_inputs);
-    let mut preset = match base {
-        Some(mut p) => {
-            if let Some(old) = p.provenance.fit_quality.take() {
-                let mut q = provenance.fit_quality.clone().unwrap_or_default();
-                if let Some(obj) = q.as_object_mut() {
-                    obj.insert("earlier".into(), old);
-                }
-                p.provenance = Provenance {
-                    fit_quality: Some(q),
-                    ..provenance
-                };
-            } else {
-                p.provenance = provenance;
-            }
-            p
-        }
-        None => MaterialPreset::new(material.name.clone(), provenance),
-    };
-    let mut section = preset
-        .phosphorescence
-        .take()
-        .unwrap_or_else(|| PhosphorescenceSection {
-            bands: Bands::RangesNm(ranges.clone()),
-            states: vec![],
-            extra: serde_json::Map::new(),
-        });
-    let old_states = std::mem::take(&mut section.states);
-    section.states = updated
-        .states
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let mut st = old_states
-                .get(i)
-                .cloned()
-                .unwrap_or_else(|| PhosphorescentState::new(s.k_r_per_s, None, s.lambda.clone()));
-            st.k_e = s.k_e.clone();
-            if rescaled.is_some() {
-                st.lambda = s.lambda.clone();
-            }
-            st
-        })
-        .collect();
-    section
-        .extra
-        .insert("excitation_fit".into(), report.clone());
-    preset.phosphorescence = Some(section);
-    write_preset(&a.out, &preset)?;
+    out.stage_text(&a.out, &to_json_string(&preset)?)?;
     if let Some(p) = &a.plot {
-        lumifit::plot::excitation_chart(
-            p,
-            &format!("{}: excitation fit", material.name),
-            &material,
-            &camera,
-            &fit,
-        )?;
+        let title = format!("{}: excitation fit", r.material.name);
+        let png = lumifit::plot::excitation_chart_png(&title, &r.material, &camera, &r.fit)?;
+        out.stage(p, &png)?;
     }
+    out.commit()?;
     super::emit(&serde_json::to_string_pretty(&report)?)
-}
-
-/// Relative deviation from 1 above which [`decay_fit_lambda_scale`] is applied to Λ: the decay
-/// fit determines its amplitudes to a fraction of a percent at 1 % noise, so a larger factor
-/// is a units mismatch, not noise.
-const LAMBDA_SCALE_TOLERANCE: f64 = 0.01;
-
-/// For a preset written by `phos fit-decay` (it records `extra.decay_fit` with the RGB
-/// amplitudes of every state at switch-off), the factor s minimising
-/// Σ_i Σ_c (s·(C Λ_i k_r,i)_c − a_i,c)²: Λ·s then reproduces the decay fit through this
-/// camera. `fit-decay --spectrum` scales the band spectrum to a maximum of 1 without a camera,
-/// so its Λ is in units of the RGB fit's brightest channel, not the camera's. `None` when the
-/// material is not such a preset (a Table 1 name, or no decay-fit record matching the states).
-fn decay_fit_lambda_scale(
-    material_arg: &str,
-    material: &Material,
-    camera: &BandCamera,
-) -> Result<Option<f64>> {
-    let path = Path::new(material_arg);
-    if !path.is_file() {
-        return Ok(None);
-    }
-    let preset = read_material(path)?;
-    let Some(states) = preset
-        .phosphorescence
-        .as_ref()
-        .and_then(|s| s.extra.get("decay_fit"))
-        .and_then(|f| f.get("states"))
-        .and_then(|v| v.as_array())
-    else {
-        return Ok(None);
-    };
-    if states.len() != material.states.len() {
-        return Ok(None);
-    }
-    let (mut num, mut den) = (0.0, 0.0);
-    for (st, m) in states.iter().zip(&material.states) {
-        let amps: Option<Vec<f64>> = st
-            .get("channel_amplitudes")
-            .and_then(|v| v.as_array())
-            .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
-        let Some(amps) = amps.filter(|a| a.len() == 3) else {
-            return Ok(None);
-        };
-        let emission: Vec<f64> = m.lambda.iter().map(|l| l * m.k_r_per_s).collect();
-        let model = camera.rgb(&emission);
-        for c in 0..3 {
-            num += amps[c] * model[c];
-            den += model[c] * model[c];
-        }
-    }
-    Ok((den > 0.0 && num > 0.0 && (num / den).is_finite()).then_some(num / den))
-}
-
-fn fit_report(fit: &ExcitationFit) -> serde_json::Value {
-    serde_json::json!({
-        "model": "Eq. 1 charged from dark under the unit-length source of each band, exact closed form; measured after the switch-off delay; k_e assumed constant over the source's support",
-        "switch_off_delay_s": fit.switch_off_delay_s,
-        "bands": fit.bands.iter().map(|b| serde_json::json!({
-            "band": b.band + 1,
-            "k_e": b.k_e,
-            "k_e_sigma": b.k_e_sigma,
-            "shared_by_states": b.shared,
-            "sharing_reason": b.sharing_reason,
-            "r_max": b.r_max,
-            "product_only": b.product_only,
-            "note": if b.product_only {
-                format!("charging never approaches saturation (largest r = {:.3} < {}): only the product k_e·Λ is determined; k_e relies on the scale of Λ from the decay fit", b.r_max, lumifit::phosphor::excitation::SATURATION_MIN)
-            } else {
-                format!("charging reaches r = {:.3}: k_e and Λ are separable", b.r_max)
-            },
-            "equilibrium_rgb": b.equilibrium,
-            "rms_weighted": b.rms,
-            "iterations": b.iterations,
-            "converged": b.converged,
-            "residuals": b.data.iter().zip(&b.model).zip(&b.charge_s).map(|((d, m), t)| serde_json::json!({
-                "charge_s": t, "rgb": d, "model": m,
-            })).collect::<Vec<_>>(),
-        })).collect::<Vec<_>>(),
-    })
 }
 
 fn parse_times(s: &str) -> Result<Vec<f64>> {
@@ -603,8 +319,8 @@ fn sibling(out: &Path, suffix: &str) -> PathBuf {
 }
 
 fn synth_cmd(a: &SynthExcitationArgs) -> Result<()> {
-    let material = resolve_material(&a.material)?;
-    let ranges = wavelength_ranges(&material)?.to_vec();
+    let resolved = resolve_material(&a.material)?;
+    let ranges = wavelength_ranges(&resolved.material)?.to_vec();
     if a.bands == 0 || a.bands > ranges.len() {
         bail!(
             "--bands {}: expected 1 to {} (the material's bands)",
@@ -624,53 +340,38 @@ fn synth_cmd(a: &SynthExcitationArgs) -> Result<()> {
             );
         }
     }
-    // Box sources, one per band, with sharp edges (ramps of 1e-6 nm), written and read back.
-    let eps = 1e-6;
-    let mut grid: Vec<f64> = Vec::new();
-    for [lo, hi] in &ranges {
-        grid.extend([lo - eps, *lo, lo + eps, hi - eps, *hi, hi + eps]);
-    }
-    grid.sort_by(f64::total_cmp);
-    grid.dedup_by(|x, y| (*x - *y).abs() < eps * 0.1);
-    let mut src = String::from("wavelength_nm");
-    for j in 0..a.bands {
-        src.push_str(&format!(",band{}", j + 1));
-    }
-    src.push('\n');
-    for w in &grid {
-        src.push_str(&format!("{w}"));
-        for [lo, hi] in ranges.iter().take(a.bands) {
-            let inside = *w >= lo + eps * 0.5 && *w <= hi - eps * 0.5;
-            src.push_str(if inside { ",1" } else { ",0" });
-        }
-        src.push('\n');
-    }
     let src_path = sibling(&a.out, "source.csv");
-    atomic_write(&src_path, src.as_bytes())?;
-    let cam_path = match &a.camera {
-        Some(p) => p.clone(),
-        None => {
-            let p = sibling(&a.out, "camera.csv");
-            let mut cam = String::from("wavelength_nm,r,g,b\n");
-            for k in 0..=340 {
-                let w = 380.0 + k as f64;
-                let v = |lo: f64, hi: f64| if w >= lo && w < hi { 1 } else { 0 };
-                cam.push_str(&format!(
-                    "{w},{},{},{}\n",
-                    v(600.0, 700.0),
-                    v(500.0, 600.0),
-                    v(400.0, 500.0)
-                ));
-            }
-            atomic_write(&p, cam.as_bytes())?;
-            p
-        }
-    };
+    let cam_path = a
+        .camera
+        .clone()
+        .unwrap_or_else(|| sibling(&a.out, "camera.csv"));
+    let mut out = Outputs::new();
+    out.inputs(resolved.path()).inputs(&a.camera);
+    out.declare("--out", &a.out)?;
+    out.declare("--out (source spectra beside it)", &src_path)?;
+    if a.camera.is_none() {
+        out.declare("--out (camera beside it)", &cam_path)?;
+    }
+    if let Some(dir) = &a.images {
+        out.declare_dir("--images", dir)?;
+    }
+    // Box sources, one per band, with sharp edges; the camera as written. Both are read back
+    // from the bytes that are written, so the data are those of the files beside the output.
+    let src_csv = SourceSpectraCsv::boxes(&ranges, a.bands).to_csv();
+    let src_name = src_path.display().to_string();
     let bands: Vec<usize> = (0..a.bands).collect();
-    let sources = read_sources(&src_path, &ranges, &bands)?;
-    let camera = read_camera(&cam_path, &material)?;
+    let sources =
+        SourceSpectraCsv::parse(src_csv.as_bytes(), &src_name)?.unit_irradiance(&ranges, &bands)?;
+    let camera = match &a.camera {
+        Some(p) => read_band_camera(p, &resolved.material.bands)?,
+        None => parse_band_camera(
+            box_camera_csv().as_bytes(),
+            &cam_path.display().to_string(),
+            &resolved.material.bands,
+        )?,
+    };
     let samples = synth_charging(
-        &material,
+        &resolved.material,
         &camera,
         &sources,
         &times,
@@ -679,81 +380,46 @@ fn synth_cmd(a: &SynthExcitationArgs) -> Result<()> {
         a.seed,
     )?;
     let rendered = match &a.images {
-        Some(dir) => Some(
-            series::render_images(dir, &samples, a.bands, &times, a.seed)
-                .with_context(|| format!("rendering images into {}", dir.display()))?,
-        ),
+        Some(dir) => {
+            let r = pipe::render_charging_images(&samples, a.bands, &times, a.seed)
+                .with_context(|| format!("rendering images into {}", dir.display()))?;
+            for (name, bytes) in &r.files {
+                out.stage(dir.join(name), bytes)?;
+            }
+            Some((dir, r))
+        }
         None => None,
     };
-    let mut csv = String::from("band,charge_s,r,g,b,std\n");
-    for s in &samples {
-        let [r, g, b] = s.rgb;
-        csv.push_str(&format!(
-            "{},{},{r},{g},{b},{}\n",
-            s.band + 1,
-            s.charge_s,
-            s.sigma.unwrap_or(1.0)
-        ));
+    out.stage_text(&src_path, &src_csv)?;
+    if a.camera.is_none() {
+        out.stage_text(&cam_path, &box_camera_csv())?;
     }
-    atomic_write(&a.out, csv.as_bytes())?;
-    let images = match (&a.images, &rendered) {
-        (Some(dir), Some(r)) => format!(
+    let data = ChargingCsv { samples };
+    out.stage_text(&a.out, &data.to_csv())?;
+    out.commit()?;
+    let images = match &rendered {
+        Some((dir, r)) => format!(
             "; {} images of {}×{} pixels (patches of {} px, dark level {} of 65535) with \
              manifest.csv, rois.csv and dark.tif in {}",
             r.images,
             r.size.0,
             r.size.1,
-            series::PATCH_PX,
-            series::PEDESTAL_DN,
+            pipe::PATCH_PX,
+            pipe::PEDESTAL_DN,
             dir.display()
         ),
-        _ => String::new(),
+        None => String::new(),
     };
     super::emit(&format!(
         "wrote {} samples ({} bands × {} charge times) of {} to {}, sources to {}, camera {}{images}",
-        samples.len(),
+        data.samples.len(),
         a.bands,
         times.len(),
-        material.name,
+        resolved.material.name,
         a.out.display(),
         src_path.display(),
         cam_path.display()
     ))
-}
-
-/// Times, RGB rows, line numbers and the source name of a `time_s,a,b,c` CSV.
-type RgbRows = (Vec<f64>, Vec<[f64; 3]>, Vec<usize>, String);
-
-/// Reads a CSV `time_s,<a>,<b>,<c>` with the given column names.
-fn read_rgb_rows(path: &Path, cols: [&str; 3], what: &str) -> Result<RgbRows> {
-    let (bytes, source) = read_input(path)?;
-    let t = parse_numeric_csv(&bytes, &source)?;
-    let expected = format!("time_s,{},{},{}", cols[0], cols[1], cols[2]);
-    let ti = t.column_index("time_s").ok_or_else(|| {
-        Error::parse(
-            &source,
-            1,
-            format!("no 'time_s' column; expected {what} '{expected}'"),
-        )
-    })?;
-    let mut ci = [0; 3];
-    for (k, c) in cols.iter().enumerate() {
-        ci[k] = t.column_index(c).ok_or_else(|| {
-            Error::parse(
-                &source,
-                1,
-                format!("no '{c}' column; expected {what} '{expected}'"),
-            )
-        })?;
-    }
-    let times = t.columns[ti].clone();
-    let rows = (0..t.n_rows())
-        .map(|i| ci.map(|c| t.columns[c][i]))
-        .collect();
-    if times.is_empty() {
-        return Err(Error::parse(&source, 0, format!("no data rows; expected {what} rows")).into());
-    }
-    Ok((times, rows, t.lines.clone(), source))
 }
 
 fn design_cmd(a: &DesignArgs) -> Result<()> {
@@ -761,116 +427,48 @@ fn design_cmd(a: &DesignArgs) -> Result<()> {
     if albedo.iter().any(|v| *v < 0.0) {
         bail!("--albedo: {:?}; expected values ≥ 0", albedo);
     }
-    let (ht, he, hl, hs) = read_rgb_rows(&a.history, ["e_r", "e_g", "e_b"], "irradiance history")?;
-    for i in 0..ht.len() {
-        if i > 0 && ht[i] <= ht[i - 1] {
-            return Err(Error::parse(
-                &hs,
-                hl[i],
-                format!(
-                    "time {} s after {} s; times must be strictly increasing",
-                    ht[i],
-                    ht[i - 1]
-                ),
-            )
-            .into());
-        }
-        if let Some(v) = he[i].iter().find(|v| **v < 0.0) {
-            return Err(
-                Error::parse(&hs, hl[i], format!("irradiance {v}; expected values ≥ 0")).into(),
-            );
-        }
+    let mut out = Outputs::new();
+    out.input(&a.history).input(&a.targets);
+    out.declare("--out", &a.out)?;
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
     }
-    let (tt, tl, tlines, ts) =
-        read_rgb_rows(&a.targets, ["l_r", "l_g", "l_b"], "keyframe targets")?;
-    for i in 0..tt.len() {
-        if tt[i] < ht[0] {
-            return Err(Error::parse(
-                &ts,
-                tlines[i],
-                format!(
-                    "keyframe at {} s is before the history starts ({} s in {}); expected \
-                     keyframes within the history",
-                    tt[i], ht[0], hs
-                ),
-            )
-            .into());
-        }
-    }
-    let hist = IrradianceHistory { t_s: ht, e: he };
-    let keys: Vec<Keyframe> = tt
-        .iter()
-        .zip(&tl)
-        .map(|(t, l)| Keyframe {
-            t_s: *t,
-            radiance: *l,
-        })
-        .collect();
+    let hist = DesignHistoryCsv::read(&a.history)?;
+    let keys = KeyframesCsv::read(&a.targets, &hist, &a.history.display().to_string())?;
     let opts = DesignOptions {
         albedo,
         grid_points: a.grid_points,
         refine: !a.grid_only,
     };
     let d = design_from_keyframes(&hist, &keys, &opts)?;
-    // The plot before the preset: a bad --plot path fails before anything is written.
     if let Some(p) = &a.plot {
-        lumifit::plot::phosphor_sim::design_chart(
-            p,
-            &lumifit::plot::phosphor_sim::DesignChart {
-                name: &a.name,
-                history: &hist,
-                keyframes: &keys,
-                albedo,
-                design: &d,
-                refined: !a.grid_only,
-            },
-        )
-        .with_context(|| format!("--plot {}", p.display()))?;
+        let chart = DesignChart {
+            name: &a.name,
+            history: &hist,
+            keyframes: &keys,
+            albedo,
+            design: &d,
+            refined: !a.grid_only,
+        };
+        let png = design_chart_png(&chart).with_context(|| format!("--plot {}", p.display()))?;
+        out.stage(p, &png)?;
     }
-    let mut sorted = keys.clone();
-    sorted.sort_by(|x, y| x.t_s.total_cmp(&y.t_s));
-    let stage = |s: &DesignStage| {
-        serde_json::json!({
-            "k_e": s.k_e, "k_r_per_s": s.k_r_per_s, "lambda": s.lambda, "cost_eq7": s.cost,
-            "time_ms": s.time_s * 1e3,
-            "keyframes": sorted.iter().zip(&s.predicted).zip(&s.relative_residual).map(|((k, p), r)| serde_json::json!({
-                "time_s": k.t_s, "target": k.radiance, "designed": p, "relative_residual": r,
-            })).collect::<Vec<_>>(),
-        })
-    };
-    let report = serde_json::json!({
-        "method": "Eq. 7 with Λ projected out (closed-form non-negative least squares per channel); log-grid over k_e (3, plus 0) and k_r, then Levenberg–Marquardt on log-rates",
-        "albedo": albedo,
-        "history_rows": hist.t_s.len(),
-        "keyframes": keys.len(),
-        "grid_candidates": d.grid_candidates,
-        "grid": stage(&d.grid),
-        "refined": if a.grid_only { serde_json::Value::Null } else { stage(&d.refined) },
-        "reachable": d.reachable,
-        "note": d.note,
-    });
+    let report = pipe::design_report(&d, &keys, albedo, hist.t_s.len(), !a.grid_only);
     let fin = &d.refined;
-    let mut inputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-    for p in [&a.history, &a.targets] {
-        inputs.push((p.clone(), read_input(p)?.0));
-    }
-    let refs: Vec<(&PathBuf, &[u8])> = inputs.iter().map(|(p, b)| (p, &b[..])).collect();
     let worst = fin.relative_residual.iter().fold(0.0_f64, |m, v| m.max(*v));
-    let provenance = Provenance::new("lumifit phos design", &refs).with_fit_quality(
-        serde_json::json!({"worst_keyframe_relative_residual": worst, "reachable": d.reachable}),
+    let provenance = provenance_of_files("lumifit phos design", &[&a.history, &a.targets])?
+        .with_fit_quality(
+            serde_json::json!({"worst_keyframe_relative_residual": worst, "reachable": d.reachable}),
+        );
+    let preset = design_preset(
+        &a.name,
+        provenance,
+        fin.k_r_per_s,
+        fin.k_e,
+        fin.lambda,
+        report.clone(),
     );
-    let mut preset = MaterialPreset::new(a.name.clone(), provenance);
-    let mut extra = serde_json::Map::new();
-    extra.insert("design".into(), report.clone());
-    preset.phosphorescence = Some(PhosphorescenceSection {
-        bands: Bands::Rgb,
-        states: vec![PhosphorescentState::new(
-            fin.k_r_per_s,
-            Some(fin.k_e.to_vec()),
-            fin.lambda.to_vec(),
-        )],
-        extra,
-    });
-    write_preset(&a.out, &preset)?;
+    out.stage_text(&a.out, &to_json_string(&preset)?)?;
+    out.commit()?;
     super::emit(&serde_json::to_string_pretty(&report)?)
 }

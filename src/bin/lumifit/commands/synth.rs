@@ -5,12 +5,15 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use lumifit::io::{atomic_write, spectrum_csv::read_multi_spectrum};
+use lumifit::io::phos_formats::read_band_camera;
+use lumifit::io::series::manifest_csv;
+use lumifit::io::Outputs;
 use lumifit::phosphor::synth::{decay_curve, DecayFrames, DecaySeriesSpec, FrameLayout};
-use lumifit::phosphor::BandCamera;
+use lumifit::phosphor::{BandCamera, Material};
+use lumifit::pipeline::phos as pipe;
 use rayon::prelude::*;
 
-use super::phos::resolve_material;
+use super::phos::{progress_bar, resolve_material};
 
 /// Subcommands of `lumifit synth`.
 #[derive(Debug, Subcommand)]
@@ -78,6 +81,11 @@ fn parse_size(s: &str) -> Result<(usize, usize)> {
     Ok((w, h))
 }
 
+/// Frames rendered (and held in memory) at once.
+fn frames_in_flight() -> usize {
+    4 * rayon::current_num_threads()
+}
+
 /// Runs a `lumifit synth` subcommand.
 pub fn run(cmd: SynthCommand) -> Result<()> {
     match cmd {
@@ -86,9 +94,19 @@ pub fn run(cmd: SynthCommand) -> Result<()> {
 }
 
 fn phos_decay(a: &PhosDecayArgs) -> Result<()> {
-    let material = resolve_material(&a.material)?;
+    let size = if a.curve_only {
+        None
+    } else {
+        Some(parse_size(&a.size)?)
+    };
+    pipe::check_decay_series_size(a.frames, size, frames_in_flight())?;
+    let resolved = resolve_material(&a.material)?;
+    let mut out = Outputs::new();
+    out.inputs(resolved.path()).inputs(&a.camera);
+    out.declare_dir("--out", &a.out)?;
+    let material = resolved.material;
     let camera = match &a.camera {
-        Some(p) => BandCamera::for_bands(&material.bands, Some(&read_multi_spectrum(p)?))?,
+        Some(p) => read_band_camera(p, &material.bands)?,
         None => BandCamera::for_bands(&material.bands, None)?,
     };
     let spec = DecaySeriesSpec {
@@ -99,108 +117,68 @@ fn phos_decay(a: &PhosDecayArgs) -> Result<()> {
         noise: a.noise,
         seed: a.seed,
     };
-    if !a.curve_only {
-        return frames(a, &material, &camera, &spec);
-    }
-    let c = decay_curve(&material, &camera, &spec)?;
-    std::fs::create_dir_all(&a.out).map_err(|e| lumifit::Error::io(&a.out, e))?;
-    let mut csv = String::from("time_s,r,g,b,std\n");
-    for i in 0..c.t_s.len() {
-        let [r, g, b] = c.rgb[i];
-        csv.push_str(&format!("{},{r},{g},{b},{}\n", c.t_s[i], c.sigma[i]));
-    }
-    let path = a.out.join("curve.csv");
-    atomic_write(&path, csv.as_bytes())?;
-    let manifest = serde_json::json!({
-        "generator": "lumifit synth phos-decay",
-        "material": material.name,
-        "rates_per_s": material.states.iter().map(|s| s.k_r_per_s).collect::<Vec<_>>(),
-        "r_at_switch_off": c.r0,
-        "saturation_assumed": c.saturation_assumed,
-        "charge_s": spec.charge_s, "frames": spec.frames, "interval_s": spec.interval_s,
-        "exposure_s": spec.exposure_s, "noise": spec.noise, "seed": spec.seed,
-        "time_s": "start of each exposure window after switch-off; values are window means",
-        "curve": "curve.csv",
-    });
-    atomic_write(
-        &a.out.join("manifest.json"),
-        serde_json::to_string_pretty(&manifest)?.as_bytes(),
-    )?;
-    super::emit(&format!("wrote {} and manifest.json", path.display()))
+    let Some((w, h)) = size else {
+        let c = decay_curve(&material, &camera, &spec)?;
+        let path = a.out.join("curve.csv");
+        out.stage_text(&path, &pipe::synth_curve_csv(&c).to_csv())?;
+        let manifest = pipe::synth_curve_manifest(&material, &c, &spec);
+        out.stage_text(
+            a.out.join("manifest.json"),
+            &serde_json::to_string_pretty(&manifest)?,
+        )?;
+        out.commit()?;
+        return super::emit(&format!("wrote {} and manifest.json", path.display()));
+    };
+    frames(out, a, &material, &camera, &spec, (w, h))
 }
 
 fn frames(
+    mut out: Outputs,
     a: &PhosDecayArgs,
-    material: &lumifit::phosphor::Material,
+    material: &Material,
     camera: &BandCamera,
     spec: &DecaySeriesSpec,
+    (w, h): (usize, usize),
 ) -> Result<()> {
-    let (w, h) = parse_size(&a.size)?;
     let layout = match a.layout {
         LayoutArg::Uniform => FrameLayout::Uniform,
         LayoutArg::Halves => FrameLayout::Halves,
     };
     let fr = DecayFrames::new(material, layout, camera, spec, w, h)?;
-    std::fs::create_dir_all(&a.out).map_err(|e| lumifit::Error::io(&a.out, e))?;
-    let bar = indicatif::ProgressBar::new(fr.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "rendering [{bar:30}] {pos}/{len} frames {elapsed}",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        fr.len() as u64,
+        "rendering [{bar:30}] {pos}/{len} frames {elapsed}",
     );
     let names: Vec<String> = (0..fr.len()).map(|j| format!("frame_{j:04}.tif")).collect();
-    let written: Result<Vec<()>> = (0..fr.len())
-        .into_par_iter()
-        .map(|j| {
-            let px: Vec<u16> = fr
-                .frame(j)?
-                .iter()
-                .map(|v| (f64::from(*v) * 65535.0).round() as u16)
-                .collect();
-            let tiff = lumifit::io::image::encode_tiff16(w as u32, h as u32, &px)?;
-            atomic_write(&a.out.join(&names[j]), &tiff)?;
-            bar.inc(1);
-            Ok(())
-        })
-        .collect();
+    // Rendered in parallel a few at a time, staged in order (bounded memory).
+    let indices: Vec<usize> = (0..fr.len()).collect();
+    for chunk in indices.chunks(frames_in_flight()) {
+        let tiffs: lumifit::Result<Vec<Vec<u8>>> = chunk
+            .par_iter()
+            .map(|&j| {
+                let t = pipe::decay_frame_tiff(&fr, j);
+                bar.inc(1);
+                t
+            })
+            .collect();
+        let tiffs = tiffs.with_context(|| format!("rendering frames for {}", a.out.display()))?;
+        for (&j, tiff) in chunk.iter().zip(&tiffs) {
+            out.stage(a.out.join(&names[j]), tiff)?;
+        }
+    }
     bar.finish_and_clear();
-    written.with_context(|| format!("writing frames to {}", a.out.display()))?;
-    let mut csv = String::from("file,time_s,exposure_s,iso,f_number\n");
-    for (j, n) in names.iter().enumerate() {
-        csv.push_str(&format!("{n},{},{},100,1\n", fr.t_s[j], fr.exposure_s));
-    }
-    atomic_write(&a.out.join("manifest.csv"), csv.as_bytes())?;
-    let region = |i: usize, m: &lumifit::phosphor::Material| {
-        serde_json::json!({
-            "material": m.name,
-            "rates_per_s": m.states.iter().map(|s| s.k_r_per_s).collect::<Vec<_>>(),
-            "r_at_switch_off": fr.curves[i].r0,
-            "saturation_assumed": fr.curves[i].saturation_assumed,
-            "first_frame_value": fr.clean_value(i, 0),
-        })
-    };
-    let mut regions = vec![region(0, material)];
-    if layout == FrameLayout::Halves {
-        let v = lumifit::phosphor::synth::two_state_variant(material)?;
-        regions.push(region(1, &v));
-    }
-    let truth = serde_json::json!({
-        "generator": "lumifit synth phos-decay",
-        "layout": match layout { FrameLayout::Uniform => "uniform", FrameLayout::Halves => "halves: x < width/2 is regions[0], the rest regions[1]" },
-        "size": [w, h],
-        "regions": regions,
-        "charge_s": spec.charge_s, "frames": spec.frames, "interval_s": spec.interval_s,
-        "exposure_s": spec.exposure_s, "iso": 100, "f_number": 1,
-        "noise": spec.noise, "seed": spec.seed,
-        "gain": fr.gain,
-        "values": "frame value = gain * camera RGB window mean * exposure_s, 16-bit linear (0-65535 = 0-1), shot + read noise (capture::synth::noisy_value, peak 0.8)",
-        "manifest": "manifest.csv",
-    });
-    atomic_write(
-        &a.out.join("truth.json"),
-        serde_json::to_string_pretty(&truth)?.as_bytes(),
+    let rows: Vec<(String, f64, f64, f64, f64)> = names
+        .iter()
+        .zip(&fr.t_s)
+        .map(|(n, t)| (n.clone(), *t, fr.exposure_s, 100.0, 1.0))
+        .collect();
+    out.stage_text(a.out.join("manifest.csv"), &manifest_csv(&rows))?;
+    let truth = pipe::synth_frames_truth(material, layout, &fr, spec)?;
+    out.stage_text(
+        a.out.join("truth.json"),
+        &serde_json::to_string_pretty(&truth)?,
     )?;
+    out.commit()?;
     super::emit(&format!(
         "wrote {} frames {w}x{h} ({}), manifest.csv and truth.json to {}",
         fr.len(),

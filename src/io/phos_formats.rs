@@ -1,0 +1,1416 @@
+//! The phosphorescence file formats: one type per format, with the reader and the writer on the
+//! same type, so that what `lumifit` writes is what it reads back (a round-trip test each).
+//!
+//! Every CSV goes through [`crate::table::parse_numeric_csv`] (header, `#` comments, UTF-8 BOM,
+//! CRLF, duplicate column names refused, NaN/inf refused with file and line) or, for the batch
+//! files that carry a text `id` column, through [`crate::table::as_text`] (BOM stripped, binary
+//! refused) with the same rules. Every error names the file, the line and what was expected.
+//!
+//! | format | type | header |
+//! |---|---|---|
+//! | decay curve | [`CurveCsv`] | `time_s,r,g,b[,std\|weight]` (or one value column) |
+//! | batch of curves | [`BatchCsv`] | `id,time_s,r,g,b[,std]` |
+//! | batch results | [`BatchResultRow`] | [`BATCH_HEADER`] |
+//! | irradiance history (`phos simulate`) | [`HistoryCsv`] | `duration_s,<one column per band>` |
+//! | simulation output | [`SimulationCsv`] | `time_s,L_…,r_1…[,r,g,b]` |
+//! | charging data | [`ChargingCsv`] | `band,charge_s,r,g,b[,std]` |
+//! | source spectra | [`SourceSpectraCsv`] | `wavelength_nm,band1,band2,…` |
+//! | design history | [`DesignHistoryCsv`] | `time_s,e_r,e_g,e_b` |
+//! | keyframe targets | [`KeyframesCsv`] | `time_s,l_r,l_g,l_b` |
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::io::read_input;
+use crate::phosphor::design::{IrradianceHistory, Keyframe};
+use crate::phosphor::excitation::{band_means_exact, unit_length, ChargingSample};
+use crate::phosphor::{BandCamera, BandSet, DecayCurve, Segment, Simulation};
+use crate::spectrum::MultiSpectrum;
+use crate::table::{as_text, parse_numeric_csv, NumericTable};
+
+/// Strictly increasing times, positive `std`/`weight` columns; errors name the line.
+fn check_rows(
+    source: &str,
+    lines: &[usize],
+    time: &[f64],
+    std: Option<&[f64]>,
+    weight: Option<&[f64]>,
+) -> Result<()> {
+    for r in 1..time.len() {
+        if time[r] <= time[r - 1] {
+            let what = if time[r] == time[r - 1] {
+                "duplicated"
+            } else {
+                "decreasing"
+            };
+            return Err(Error::parse(
+                source,
+                lines[r],
+                format!(
+                    "time {} s after {} s ({what}); times must be strictly increasing",
+                    time[r],
+                    time[r - 1]
+                ),
+            ));
+        }
+    }
+    for (name, col) in [("std", std), ("weight", weight)] {
+        if let Some(c) = col {
+            if let Some(r) = c.iter().position(|v| *v <= 0.0) {
+                return Err(Error::parse(
+                    source,
+                    lines[r],
+                    format!("{name} {}; expected > 0", c[r]),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Floors per-sample σ at 1e-9 of the largest |value| (the digits a double-precision curve
+/// carries): a noise-free synthetic curve's σ ≈ 1e-154 would otherwise overflow the weights 1/σ².
+pub fn floor_sigma(sigma: Vec<f64>, channels: &[Vec<f64>]) -> Vec<f64> {
+    let ymax = channels
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let floor = 1e-9 * ymax;
+    sigma.into_iter().map(|v| v.max(floor)).collect()
+}
+
+/// Whether a per-sample σ column is given as standard deviations or as weights 1/σ².
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SigmaColumn {
+    /// `std`: σ itself.
+    Std,
+    /// `weight`: 1/σ².
+    Weight,
+}
+
+/// A decay curve CSV: `time_s`, one or three value columns (`r,g,b`), optional `std` or
+/// `weight` (1/σ²). Times strictly increasing, `std`/`weight` > 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurveCsv {
+    /// Times in s after switch-off.
+    pub time_s: Vec<f64>,
+    /// Value column names, in file order.
+    pub names: Vec<String>,
+    /// One vector per value column.
+    pub channels: Vec<Vec<f64>>,
+    /// The `std` or `weight` column as written, with its kind.
+    pub sigma: Option<(SigmaColumn, Vec<f64>)>,
+}
+
+impl CurveCsv {
+    /// Parses a curve CSV; errors name `source` and the line.
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
+        let t = parse_numeric_csv(bytes, source)?;
+        let Some(ti) = t.column_index("time_s") else {
+            return Err(Error::parse(
+                source,
+                1,
+                "no 'time_s' column; expected 'time_s,r,g,b' (optional 'std' or 'weight')",
+            ));
+        };
+        let si = t.column_index("std");
+        let wi = t.column_index("weight");
+        if si.is_some() && wi.is_some() {
+            return Err(Error::parse(
+                source,
+                1,
+                "both 'std' and 'weight' columns; give one",
+            ));
+        }
+        let chans: Vec<usize> = (0..t.header.len())
+            .filter(|&c| c != ti && Some(c) != si && Some(c) != wi)
+            .collect();
+        if chans.len() != 1 && chans.len() != 3 {
+            return Err(Error::parse(
+                source,
+                1,
+                format!(
+                    "{} value columns; expected 1 or 3 (r,g,b) besides time_s and std/weight",
+                    chans.len()
+                ),
+            ));
+        }
+        check_rows(
+            source,
+            &t.lines,
+            &t.columns[ti],
+            si.map(|i| &t.columns[i][..]),
+            wi.map(|i| &t.columns[i][..]),
+        )?;
+        let sigma = match (si, wi) {
+            (Some(i), _) => Some((SigmaColumn::Std, t.columns[i].clone())),
+            (_, Some(i)) => Some((SigmaColumn::Weight, t.columns[i].clone())),
+            _ => None,
+        };
+        Ok(Self {
+            time_s: t.columns[ti].clone(),
+            names: chans.iter().map(|&c| t.header[c].clone()).collect(),
+            channels: chans.iter().map(|&c| t.columns[c].clone()).collect(),
+            sigma,
+        })
+    }
+
+    /// The CSV text (header, one row per sample, values in Rust's shortest round-trip form).
+    pub fn to_csv(&self) -> String {
+        let mut csv = String::from("time_s");
+        for n in &self.names {
+            csv.push(',');
+            csv.push_str(n);
+        }
+        match &self.sigma {
+            Some((SigmaColumn::Std, _)) => csv.push_str(",std"),
+            Some((SigmaColumn::Weight, _)) => csv.push_str(",weight"),
+            None => {}
+        }
+        csv.push('\n');
+        for i in 0..self.time_s.len() {
+            csv.push_str(&format!("{}", self.time_s[i]));
+            for c in &self.channels {
+                csv.push_str(&format!(",{}", c[i]));
+            }
+            if let Some((_, s)) = &self.sigma {
+                csv.push_str(&format!(",{}", s[i]));
+            }
+            csv.push('\n');
+        }
+        csv
+    }
+
+    /// The validated curve: weights become σ = 1/√w and σ is floored ([`floor_sigma`]).
+    pub fn into_curve(self, source: &str) -> Result<DecayCurve> {
+        let sigma = self.sigma.map(|(kind, v)| match kind {
+            SigmaColumn::Std => v,
+            SigmaColumn::Weight => v.iter().map(|w| 1.0 / w.sqrt()).collect(),
+        });
+        let sigma = sigma.map(|s| floor_sigma(s, &self.channels));
+        DecayCurve::new(self.time_s, self.channels, sigma).map_err(|e| prefix(source, e))
+    }
+}
+
+/// An error of a domain constructor, prefixed with the file it came from.
+fn prefix(source: &str, e: Error) -> Error {
+    match e {
+        Error::Parse { .. } | Error::Io { .. } => e,
+        other => Error::invalid(source, other.to_string()),
+    }
+}
+
+/// Reads a curve CSV `time_s,<channels>[,std|weight]` into a validated [`DecayCurve`].
+pub fn read_curve(path: &Path) -> Result<DecayCurve> {
+    let (bytes, source) = read_input(path)?;
+    CurveCsv::parse(&bytes, &source)?.into_curve(&source)
+}
+
+/// One curve of a batch file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BatchCurve {
+    /// The curve's id (first column).
+    pub id: String,
+    /// Line of its first row.
+    pub line: usize,
+    /// Times in s.
+    pub t_s: Vec<f64>,
+    /// R, G, B values.
+    pub rgb: [Vec<f64>; 3],
+    /// Per-sample σ (when the file has a `std` column).
+    pub std: Option<Vec<f64>>,
+    /// Line of every row, for messages.
+    pub lines: Vec<usize>,
+}
+
+impl BatchCurve {
+    /// The curve as the decay fit takes it.
+    pub fn to_curve(&self) -> Result<DecayCurve> {
+        DecayCurve::new(self.t_s.clone(), self.rgb.to_vec(), self.std.clone())
+    }
+}
+
+/// A batch CSV `id,time_s,r,g,b[,std]`: many curves, rows grouped by id (in order of first
+/// appearance). Times strictly increasing within each curve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BatchCsv {
+    /// The curves.
+    pub curves: Vec<BatchCurve>,
+}
+
+/// Splits one CSV line into trimmed fields, honouring double quotes (`"a,b"`, `""`).
+fn split_fields(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => out.push(std::mem::take(&mut cur).trim().to_string()),
+            c => cur.push(c),
+        }
+    }
+    out.push(cur.trim().to_string());
+    out
+}
+
+/// A CSV field: quoted when it holds a comma or a quote.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+impl BatchCsv {
+    /// Parses a batch file; errors name `source` and the line.
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
+        let text = as_text(bytes, source, "CSV 'id,time_s,r,g,b'")?;
+        let mut header: Option<Vec<String>> = None;
+        let mut curves: Vec<BatchCurve> = Vec::new();
+        let mut index = HashMap::new();
+        let mut has_std = false;
+        for (i, raw) in text.lines().enumerate() {
+            let line = i + 1;
+            let l = raw.trim();
+            if l.is_empty() || l.starts_with('#') {
+                continue;
+            }
+            let f = split_fields(l);
+            let Some(h) = &header else {
+                let h: Vec<String> = f.iter().map(|s| s.to_ascii_lowercase()).collect();
+                let base = ["id", "time_s", "r", "g", "b"];
+                if let Some((k, name)) = h
+                    .iter()
+                    .enumerate()
+                    .find(|(k, n)| h[..*k].contains(n))
+                    .map(|(k, n)| (k, n.clone()))
+                {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!(
+                            "column '{name}' appears twice (column {}); expected 'id,time_s,r,g,b' with an optional ',std'",
+                            k + 1
+                        ),
+                    ));
+                }
+                if h.len() < 5 || h[..5] != base || (h.len() == 6 && h[5] != "std") || h.len() > 6 {
+                    return Err(Error::parse(
+                        source,
+                        line,
+                        format!("header '{l}'; expected 'id,time_s,r,g,b' with an optional ',std'"),
+                    ));
+                }
+                has_std = h.len() == 6;
+                header = Some(h);
+                continue;
+            };
+            if f.len() != h.len() {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("{} fields; expected {}", f.len(), h.len()),
+                ));
+            }
+            let mut v = [0.0; 5];
+            for k in 1..h.len() {
+                v[k - 1] = f[k]
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| {
+                        Error::parse(
+                            source,
+                            line,
+                            format!("'{}' in column '{}' is not a finite number", f[k], h[k]),
+                        )
+                    })?;
+            }
+            let idx = *index.entry(f[0].clone()).or_insert_with(|| {
+                curves.push(BatchCurve {
+                    id: f[0].clone(),
+                    line,
+                    t_s: vec![],
+                    rgb: [vec![], vec![], vec![]],
+                    std: has_std.then(Vec::new),
+                    lines: vec![],
+                });
+                curves.len() - 1
+            });
+            let c = &mut curves[idx];
+            c.t_s.push(v[0]);
+            for k in 0..3 {
+                c.rgb[k].push(v[k + 1]);
+            }
+            if let Some(s) = &mut c.std {
+                s.push(v[4]);
+            }
+            c.lines.push(line);
+        }
+        if header.is_none() {
+            return Err(Error::parse(
+                source,
+                0,
+                "file is empty; expected header 'id,time_s,r,g,b' and data rows",
+            ));
+        }
+        if curves.is_empty() {
+            return Err(Error::parse(
+                source,
+                0,
+                "no data rows; expected rows 'id,time_s,r,g,b' after the header",
+            ));
+        }
+        for c in &curves {
+            check_rows(source, &c.lines, &c.t_s, c.std.as_deref(), None).map_err(|e| {
+                Error::invalid(
+                    format!("curve '{}' (first row at line {})", c.id, c.line),
+                    e.to_string(),
+                )
+            })?;
+        }
+        Ok(Self { curves })
+    }
+
+    /// Reads a batch file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let (bytes, source) = read_input(path)?;
+        Self::parse(&bytes, &source)
+    }
+
+    /// The CSV text (curves one after another).
+    pub fn to_csv(&self) -> String {
+        let has_std = self.curves.iter().any(|c| c.std.is_some());
+        let mut csv = String::from(if has_std {
+            "id,time_s,r,g,b,std\n"
+        } else {
+            "id,time_s,r,g,b\n"
+        });
+        for c in &self.curves {
+            for i in 0..c.t_s.len() {
+                csv.push_str(&format!(
+                    "{},{},{},{},{}",
+                    csv_field(&c.id),
+                    c.t_s[i],
+                    c.rgb[0][i],
+                    c.rgb[1][i],
+                    c.rgb[2][i]
+                ));
+                if has_std {
+                    let s = c.std.as_ref().map_or(1.0, |s| s[i]);
+                    csv.push_str(&format!(",{s}"));
+                }
+                csv.push('\n');
+            }
+        }
+        csv
+    }
+}
+
+/// Header of the batch output (a contract).
+pub const BATCH_HEADER: &str =
+    "id,n_states,k1_per_s,k2_per_s,k3_per_s,a1,a2,a3,spectrum_r,spectrum_g,spectrum_b,rms,flags";
+
+/// One row of the batch output: a fitted curve, or an empty row whose `flags` hold
+/// `error: …`. Field names are the columns of [`BATCH_HEADER`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatchResultRow {
+    /// The curve's id.
+    pub id: String,
+    /// Number of fitted states.
+    pub n_states: Option<usize>,
+    /// Fastest rate, s⁻¹.
+    pub k1_per_s: Option<f64>,
+    /// Second rate, s⁻¹.
+    pub k2_per_s: Option<f64>,
+    /// Third rate, s⁻¹.
+    pub k3_per_s: Option<f64>,
+    /// Amplitude of state 1.
+    pub a1: Option<f64>,
+    /// Amplitude of state 2.
+    pub a2: Option<f64>,
+    /// Amplitude of state 3.
+    pub a3: Option<f64>,
+    /// Shared spectrum, red.
+    pub spectrum_r: Option<f64>,
+    /// Shared spectrum, green.
+    pub spectrum_g: Option<f64>,
+    /// Shared spectrum, blue.
+    pub spectrum_b: Option<f64>,
+    /// Root-mean-square residual.
+    pub rms: Option<f64>,
+    /// Fit flags joined by `;`, or `error: …` for a curve that could not be fitted.
+    pub flags: String,
+}
+
+impl BatchResultRow {
+    /// Whether the row records a failed curve.
+    pub fn is_error(&self) -> bool {
+        self.flags.starts_with("error:")
+    }
+
+    /// A failed curve: empty values, `flags` = `error: <message>`.
+    pub fn failed(id: &str, message: &str) -> Self {
+        Self {
+            id: id.to_string(),
+            n_states: None,
+            k1_per_s: None,
+            k2_per_s: None,
+            k3_per_s: None,
+            a1: None,
+            a2: None,
+            a3: None,
+            spectrum_r: None,
+            spectrum_g: None,
+            spectrum_b: None,
+            rms: None,
+            flags: format!("error: {}", message.replace('"', "'")),
+        }
+    }
+
+    /// The row as one CSV line (no newline), numbers in Rust's shortest round-trip form.
+    pub fn to_csv_line(&self) -> String {
+        let o = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x}"));
+        let flags = if self.is_error() {
+            format!("\"{}\"", self.flags)
+        } else {
+            csv_field(&self.flags)
+        };
+        [
+            csv_field(&self.id),
+            self.n_states.map_or(String::new(), |n| n.to_string()),
+            o(self.k1_per_s),
+            o(self.k2_per_s),
+            o(self.k3_per_s),
+            o(self.a1),
+            o(self.a2),
+            o(self.a3),
+            o(self.spectrum_r),
+            o(self.spectrum_g),
+            o(self.spectrum_b),
+            o(self.rms),
+            flags,
+        ]
+        .join(",")
+    }
+
+    /// The whole output file: [`BATCH_HEADER`] and one line per row.
+    pub fn to_csv(rows: &[Self]) -> String {
+        let mut text = String::from(BATCH_HEADER);
+        text.push('\n');
+        for r in rows {
+            text.push_str(&r.to_csv_line());
+            text.push('\n');
+        }
+        text
+    }
+
+    /// Reads a batch output back (BOM and `#` comments allowed); errors name `source` and line.
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Vec<Self>> {
+        let text = as_text(bytes, source, &format!("CSV '{BATCH_HEADER}'"))?;
+        let mut rdr = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let header = rdr
+            .headers()
+            .map_err(|e| Error::parse(source, 1, e.to_string()))?
+            .iter()
+            .collect::<Vec<_>>()
+            .join(",");
+        if header != BATCH_HEADER {
+            return Err(Error::parse(
+                source,
+                1,
+                format!("header '{header}'; expected '{BATCH_HEADER}'"),
+            ));
+        }
+        rdr.deserialize()
+            .map(|r| {
+                r.map_err(|e| {
+                    let line = e.position().map_or(0, |p| p.line() as usize);
+                    Error::parse(source, line, format!("expected a batch result row: {e}"))
+                })
+            })
+            .collect()
+    }
+}
+
+/// An irradiance history of `phos simulate`: `duration_s` then one column per band of the
+/// material; durations > 0, irradiance ≥ 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HistoryCsv {
+    /// Band column names (as written; the reader keeps the file's names).
+    pub names: Vec<String>,
+    /// The segments.
+    pub segments: Vec<Segment>,
+}
+
+impl HistoryCsv {
+    /// Parses a history for a material of `n_bands` bands.
+    pub fn parse(bytes: &[u8], source: &str, n_bands: usize) -> Result<Self> {
+        let t = parse_numeric_csv(bytes, source)?;
+        if t.column_index("duration_s") != Some(0) {
+            return Err(Error::parse(
+                source,
+                1,
+                "expected the header to start with 'duration_s', then one irradiance column per band",
+            ));
+        }
+        if t.header.len() != n_bands + 1 {
+            return Err(Error::parse(
+                source,
+                1,
+                format!(
+                    "{} irradiance columns; the material has {n_bands} bands, expected one column per band",
+                    t.header.len() - 1
+                ),
+            ));
+        }
+        let mut segments = Vec::with_capacity(t.n_rows());
+        for r in 0..t.n_rows() {
+            let d = t.columns[0][r];
+            if d <= 0.0 {
+                return Err(Error::parse(
+                    source,
+                    t.lines[r],
+                    format!("duration {d} s; expected a duration > 0"),
+                ));
+            }
+            let e: Vec<f64> = (1..=n_bands).map(|c| t.columns[c][r]).collect();
+            if let Some(v) = e.iter().find(|v| **v < 0.0) {
+                return Err(Error::parse(
+                    source,
+                    t.lines[r],
+                    format!("irradiance {v}; expected values ≥ 0"),
+                ));
+            }
+            segments.push(Segment {
+                duration_s: d,
+                irradiance: e,
+            });
+        }
+        if segments.is_empty() {
+            return Err(Error::parse(
+                source,
+                0,
+                "no segments; expected at least one data row",
+            ));
+        }
+        Ok(Self {
+            names: t.header[1..].to_vec(),
+            segments,
+        })
+    }
+
+    /// Reads a history file.
+    pub fn read(path: &Path, n_bands: usize) -> Result<Vec<Segment>> {
+        let (bytes, source) = read_input(path)?;
+        Ok(Self::parse(&bytes, &source, n_bands)?.segments)
+    }
+
+    /// The CSV text.
+    pub fn to_csv(&self) -> String {
+        let mut csv = String::from("duration_s");
+        for n in &self.names {
+            csv.push(',');
+            csv.push_str(n);
+        }
+        csv.push('\n');
+        for s in &self.segments {
+            csv.push_str(&format!("{}", s.duration_s));
+            for v in &s.irradiance {
+                csv.push_str(&format!(",{v}"));
+            }
+            csv.push('\n');
+        }
+        csv
+    }
+}
+
+/// The output of `phos simulate`: `time_s`, the emission per band (`L_r,L_g,L_b` or
+/// `L_<lo>_<hi>nm`), the excited fraction per state (`r_1…`) and, with a camera, `r,g,b`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationCsv {
+    /// Column names after `time_s`.
+    pub header: Vec<String>,
+    /// Sample times in s.
+    pub t_s: Vec<f64>,
+    /// One row of values per time, in header order.
+    pub rows: Vec<Vec<f64>>,
+}
+
+impl SimulationCsv {
+    /// The table of a simulation of a material with `bands`, with optional camera RGB.
+    pub fn new(bands: &BandSet, sim: &Simulation, rgb: Option<&[[f64; 3]]>) -> Self {
+        let mut header: Vec<String> = match bands {
+            BandSet::Rgb => vec!["L_r".into(), "L_g".into(), "L_b".into()],
+            BandSet::RangesNm(r) => r.iter().map(|[lo, hi]| format!("L_{lo}_{hi}nm")).collect(),
+        };
+        let n_states = sim.r.first().map_or(0, Vec::len);
+        header.extend((0..n_states).map(|i| format!("r_{}", i + 1)));
+        if rgb.is_some() {
+            header.extend(["r".into(), "g".into(), "b".into()]);
+        }
+        let rows = (0..sim.t_s.len())
+            .map(|k| {
+                let mut row = sim.emission[k].clone();
+                row.extend(&sim.r[k]);
+                if let Some(rgb) = rgb {
+                    row.extend(rgb[k]);
+                }
+                row
+            })
+            .collect();
+        Self {
+            header,
+            t_s: sim.t_s.clone(),
+            rows,
+        }
+    }
+
+    /// The CSV text.
+    pub fn to_csv(&self) -> String {
+        let mut csv = String::from("time_s");
+        for h in &self.header {
+            csv.push(',');
+            csv.push_str(h);
+        }
+        csv.push('\n');
+        for (t, row) in self.t_s.iter().zip(&self.rows) {
+            csv.push_str(&format!("{t}"));
+            for v in row {
+                csv.push_str(&format!(",{v}"));
+            }
+            csv.push('\n');
+        }
+        csv
+    }
+
+    /// Reads the table back (any `time_s,…` numeric table).
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
+        let t = parse_numeric_csv(bytes, source)?;
+        if t.column_index("time_s") != Some(0) {
+            return Err(Error::parse(
+                source,
+                1,
+                "expected the header to start with 'time_s'",
+            ));
+        }
+        Ok(Self {
+            header: t.header[1..].to_vec(),
+            t_s: t.columns[0].clone(),
+            rows: (0..t.n_rows())
+                .map(|r| t.columns[1..].iter().map(|c| c[r]).collect())
+                .collect(),
+        })
+    }
+}
+
+/// Charging data `band,charge_s,r,g,b[,std]` (band 1-based in the file, 0-based in memory).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChargingCsv {
+    /// The samples in file order.
+    pub samples: Vec<ChargingSample>,
+}
+
+impl ChargingCsv {
+    /// Parses charging data for a material of `n_bands` bands.
+    pub fn parse(bytes: &[u8], source: &str, n_bands: usize) -> Result<Self> {
+        let t = parse_numeric_csv(bytes, source)?;
+        let col = |name: &str| {
+            t.column_index(name).ok_or_else(|| {
+                Error::parse(
+                    source,
+                    1,
+                    format!(
+                        "no '{name}' column; expected header 'band,charge_s,r,g,b' (optional 'std')"
+                    ),
+                )
+            })
+        };
+        let (cb, ct, cr, cg, cbl) = (
+            col("band")?,
+            col("charge_s")?,
+            col("r")?,
+            col("g")?,
+            col("b")?,
+        );
+        let cs = t.column_index("std");
+        let mut samples = Vec::with_capacity(t.n_rows());
+        for i in 0..t.n_rows() {
+            let line = t.lines[i];
+            let b = t.columns[cb][i];
+            if b.fract() != 0.0 || b < 1.0 || b > n_bands as f64 {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!(
+                        "band {b}; expected an integer from 1 to {n_bands} (the material's bands)"
+                    ),
+                ));
+            }
+            let ts = t.columns[ct][i];
+            if ts < 0.0 {
+                return Err(Error::parse(
+                    source,
+                    line,
+                    format!("charge_s {ts}; expected a charging time ≥ 0 s"),
+                ));
+            }
+            let sigma = match cs {
+                Some(c) => {
+                    let s = t.columns[c][i];
+                    if s <= 0.0 {
+                        return Err(Error::parse(source, line, format!("std {s}; expected > 0")));
+                    }
+                    Some(s)
+                }
+                None => None,
+            };
+            samples.push(ChargingSample {
+                band: b as usize - 1,
+                charge_s: ts,
+                rgb: [t.columns[cr][i], t.columns[cg][i], t.columns[cbl][i]],
+                sigma,
+            });
+        }
+        if samples.is_empty() {
+            return Err(Error::parse(
+                source,
+                0,
+                "no data rows; expected band,charge_s,r,g,b rows",
+            ));
+        }
+        Ok(Self { samples })
+    }
+
+    /// Reads a charging-data file.
+    pub fn read(path: &Path, n_bands: usize) -> Result<Vec<ChargingSample>> {
+        let (bytes, source) = read_input(path)?;
+        Ok(Self::parse(&bytes, &source, n_bands)?.samples)
+    }
+
+    /// The CSV text `band,charge_s,r,g,b,std` (a sample without σ is written with std 1).
+    pub fn to_csv(&self) -> String {
+        let mut csv = String::from("band,charge_s,r,g,b,std\n");
+        for s in &self.samples {
+            let [r, g, b] = s.rgb;
+            csv.push_str(&format!(
+                "{},{},{r},{g},{b},{}\n",
+                s.band + 1,
+                s.charge_s,
+                s.sigma.unwrap_or(1.0)
+            ));
+        }
+        csv
+    }
+}
+
+/// Source spectra of a charging experiment: `wavelength_nm,band1,band2,…`, wavelengths strictly
+/// increasing; the column of band j (1-based) is named `band<j>`, `band_<j>` or `<j>`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceSpectraCsv {
+    /// Wavelengths in nm.
+    pub wavelength_nm: Vec<f64>,
+    /// (band, 0-based; spectrum) per column.
+    pub bands: Vec<(usize, Vec<f64>)>,
+    /// Where it came from, for messages.
+    pub source: String,
+    header: Vec<String>,
+}
+
+/// Half-width of the ramps of the box sources of [`SourceSpectraCsv::boxes`], in nm.
+const BOX_EDGE_NM: f64 = 1e-6;
+
+impl SourceSpectraCsv {
+    /// Parses the file (every column named as a band is kept).
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
+        let t: NumericTable = parse_numeric_csv(bytes, source)?;
+        let Some(wi) = t.column_index("wavelength_nm") else {
+            return Err(Error::parse(
+                source,
+                1,
+                "no 'wavelength_nm' column; expected 'wavelength_nm,band1,band2,…'",
+            ));
+        };
+        let wl = &t.columns[wi];
+        for r in 1..wl.len() {
+            if wl[r] <= wl[r - 1] {
+                return Err(Error::parse(
+                    source,
+                    t.lines[r],
+                    format!(
+                        "wavelength {} nm after {} nm; expected strictly increasing",
+                        wl[r],
+                        wl[r - 1]
+                    ),
+                ));
+            }
+        }
+        let mut bands = Vec::new();
+        for (c, h) in t.header.iter().enumerate() {
+            let h = h.to_ascii_lowercase();
+            let num = h
+                .strip_prefix("band_")
+                .or_else(|| h.strip_prefix("band"))
+                .unwrap_or(&h);
+            if let Ok(j) = num.parse::<usize>() {
+                if j >= 1 && c != wi {
+                    bands.push((j - 1, t.columns[c].clone()));
+                }
+            }
+        }
+        Ok(Self {
+            wavelength_nm: wl.clone(),
+            bands,
+            source: source.to_string(),
+            header: t.header,
+        })
+    }
+
+    /// Reads a source-spectra file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let (bytes, source) = read_input(path)?;
+        Self::parse(&bytes, &source)
+    }
+
+    /// Box sources with sharp edges (ramps of 1e-6 nm), one per band of the first `n` ranges.
+    pub fn boxes(ranges: &[[f64; 2]], n: usize) -> Self {
+        let eps = BOX_EDGE_NM;
+        let mut grid: Vec<f64> = Vec::new();
+        for [lo, hi] in ranges {
+            grid.extend([lo - eps, *lo, lo + eps, hi - eps, *hi, hi + eps]);
+        }
+        grid.sort_by(f64::total_cmp);
+        grid.dedup_by(|x, y| (*x - *y).abs() < eps * 0.1);
+        let bands = ranges
+            .iter()
+            .take(n)
+            .enumerate()
+            .map(|(j, [lo, hi])| {
+                let v = grid
+                    .iter()
+                    .map(|w| {
+                        if *w >= lo + eps * 0.5 && *w <= hi - eps * 0.5 {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                (j, v)
+            })
+            .collect::<Vec<_>>();
+        let mut header = vec!["wavelength_nm".to_string()];
+        header.extend(bands.iter().map(|(j, _)| format!("band{}", j + 1)));
+        Self {
+            wavelength_nm: grid,
+            bands,
+            source: "<box sources>".into(),
+            header,
+        }
+    }
+
+    /// The CSV text `wavelength_nm,band1,…`.
+    pub fn to_csv(&self) -> String {
+        let mut csv = String::from("wavelength_nm");
+        for (j, _) in &self.bands {
+            csv.push_str(&format!(",band{}", j + 1));
+        }
+        csv.push('\n');
+        for (i, w) in self.wavelength_nm.iter().enumerate() {
+            csv.push_str(&format!("{w}"));
+            for (_, v) in &self.bands {
+                csv.push_str(&format!(",{}", v[i]));
+            }
+            csv.push('\n');
+        }
+        csv
+    }
+
+    /// Unit-length per-band irradiance (band means over `ranges`) of the sources that charged
+    /// each of `bands` (0-based).
+    pub fn unit_irradiance(
+        &self,
+        ranges: &[[f64; 2]],
+        bands: &[usize],
+    ) -> Result<Vec<(usize, Vec<f64>)>> {
+        let source = &self.source;
+        let mut out = Vec::new();
+        for &j in bands {
+            let Some((_, col)) = self.bands.iter().find(|(b, _)| *b == j) else {
+                return Err(Error::parse(
+                    source,
+                    1,
+                    format!(
+                        "no column for band {} (header: {}); expected a column 'band{}' with the \
+                         source spectrum that charged that band",
+                        j + 1,
+                        self.header.join(","),
+                        j + 1
+                    ),
+                ));
+            };
+            let ctx = |e: Error| Error::invalid(format!("{source}: band{}", j + 1), e.to_string());
+            let means = band_means_exact(&self.wavelength_nm, col, ranges).map_err(ctx)?;
+            let unit = unit_length(&means).map_err(ctx)?;
+            out.push((j, unit));
+        }
+        Ok(out)
+    }
+}
+
+/// The ideal box camera (B 400–500, G 500–600, R 600–700 nm) as `wavelength_nm,r,g,b` at 1 nm
+/// over 380–720 nm, the default camera of `synth phos-excitation`.
+pub fn box_camera_csv() -> String {
+    let mut cam = String::from("wavelength_nm,r,g,b\n");
+    for k in 0..=340 {
+        let w = 380.0 + k as f64;
+        let v = |lo: f64, hi: f64| if w >= lo && w < hi { 1 } else { 0 };
+        cam.push_str(&format!(
+            "{w},{},{},{}\n",
+            v(600.0, 700.0),
+            v(500.0, 600.0),
+            v(400.0, 500.0)
+        ));
+    }
+    cam
+}
+
+/// The camera of a material's bands from sensitivities `wavelength_nm,r,g,b` (bytes of the file
+/// `source`); errors name the file.
+pub fn parse_band_camera(bytes: &[u8], source: &str, bands: &BandSet) -> Result<BandCamera> {
+    let ms = MultiSpectrum::from_table(&parse_numeric_csv(bytes, source)?)?;
+    BandCamera::for_bands(bands, Some(&ms)).map_err(|e| prefix(source, e))
+}
+
+/// Reads camera sensitivities `wavelength_nm,r,g,b` for a material's bands.
+pub fn read_band_camera(path: &Path, bands: &BandSet) -> Result<BandCamera> {
+    let (bytes, source) = read_input(path)?;
+    parse_band_camera(&bytes, &source, bands)
+}
+
+/// Times, RGB rows and line numbers of a `time_s,a,b,c` CSV.
+struct RgbRows {
+    t_s: Vec<f64>,
+    rgb: Vec<[f64; 3]>,
+    lines: Vec<usize>,
+}
+
+fn parse_rgb_rows(bytes: &[u8], source: &str, cols: [&str; 3], what: &str) -> Result<RgbRows> {
+    let t = parse_numeric_csv(bytes, source)?;
+    let expected = format!("time_s,{},{},{}", cols[0], cols[1], cols[2]);
+    let ti = t.column_index("time_s").ok_or_else(|| {
+        Error::parse(
+            source,
+            1,
+            format!("no 'time_s' column; expected {what} '{expected}'"),
+        )
+    })?;
+    let mut ci = [0; 3];
+    for (k, c) in cols.iter().enumerate() {
+        ci[k] = t.column_index(c).ok_or_else(|| {
+            Error::parse(
+                source,
+                1,
+                format!("no '{c}' column; expected {what} '{expected}'"),
+            )
+        })?;
+    }
+    if t.n_rows() == 0 {
+        return Err(Error::parse(
+            source,
+            0,
+            format!("no data rows; expected {what} rows"),
+        ));
+    }
+    Ok(RgbRows {
+        t_s: t.columns[ti].clone(),
+        rgb: (0..t.n_rows())
+            .map(|i| ci.map(|c| t.columns[c][i]))
+            .collect(),
+        lines: t.lines.clone(),
+    })
+}
+
+fn rgb_rows_csv(cols: [&str; 3], t_s: &[f64], rgb: &[[f64; 3]]) -> String {
+    let mut csv = format!("time_s,{},{},{}\n", cols[0], cols[1], cols[2]);
+    for (t, [a, b, c]) in t_s.iter().zip(rgb) {
+        csv.push_str(&format!("{t},{a},{b},{c}\n"));
+    }
+    csv
+}
+
+/// The irradiance history of `phos design`: `time_s,e_r,e_g,e_b`, constant from each row's
+/// time to the next; times strictly increasing, irradiance ≥ 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignHistoryCsv {
+    /// The history.
+    pub history: IrradianceHistory,
+}
+
+const HISTORY_COLUMNS: [&str; 3] = ["e_r", "e_g", "e_b"];
+const TARGET_COLUMNS: [&str; 3] = ["l_r", "l_g", "l_b"];
+
+impl DesignHistoryCsv {
+    /// Parses a design history.
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
+        let r = parse_rgb_rows(bytes, source, HISTORY_COLUMNS, "irradiance history")?;
+        for i in 0..r.t_s.len() {
+            if i > 0 && r.t_s[i] <= r.t_s[i - 1] {
+                return Err(Error::parse(
+                    source,
+                    r.lines[i],
+                    format!(
+                        "time {} s after {} s; times must be strictly increasing",
+                        r.t_s[i],
+                        r.t_s[i - 1]
+                    ),
+                ));
+            }
+            if let Some(v) = r.rgb[i].iter().find(|v| **v < 0.0) {
+                return Err(Error::parse(
+                    source,
+                    r.lines[i],
+                    format!("irradiance {v}; expected values ≥ 0"),
+                ));
+            }
+        }
+        Ok(Self {
+            history: IrradianceHistory {
+                t_s: r.t_s,
+                e: r.rgb,
+            },
+        })
+    }
+
+    /// Reads a design history.
+    pub fn read(path: &Path) -> Result<IrradianceHistory> {
+        let (bytes, source) = read_input(path)?;
+        Ok(Self::parse(&bytes, &source)?.history)
+    }
+
+    /// The CSV text.
+    pub fn to_csv(&self) -> String {
+        rgb_rows_csv(HISTORY_COLUMNS, &self.history.t_s, &self.history.e)
+    }
+}
+
+/// Keyframe targets of `phos design`: `time_s,l_r,l_g,l_b` (outgoing radiance); times never
+/// decrease and none lies before the history's start.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyframesCsv {
+    /// The keyframes in file order.
+    pub keyframes: Vec<Keyframe>,
+}
+
+impl KeyframesCsv {
+    /// Parses keyframe targets; `history` (with its file name) bounds the times from below.
+    pub fn parse(
+        bytes: &[u8],
+        source: &str,
+        history: Option<(&IrradianceHistory, &str)>,
+    ) -> Result<Self> {
+        let r = parse_rgb_rows(bytes, source, TARGET_COLUMNS, "keyframe targets")?;
+        let start = history.map(|(h, hs)| (h.t_s.first().copied().unwrap_or(0.0), hs));
+        for i in 0..r.t_s.len() {
+            if let Some((start, hs)) = start.filter(|(s, _)| r.t_s[i] < *s) {
+                return Err(Error::parse(
+                    source,
+                    r.lines[i],
+                    format!(
+                        "keyframe at {} s is before the history starts ({} s in {}); expected \
+                         keyframes within the history",
+                        r.t_s[i], start, hs
+                    ),
+                ));
+            }
+            if i > 0 && r.t_s[i] < r.t_s[i - 1] {
+                return Err(Error::parse(
+                    source,
+                    r.lines[i],
+                    format!(
+                        "keyframe at {} s after one at {} s (decreasing); expected keyframe \
+                         times in increasing order",
+                        r.t_s[i],
+                        r.t_s[i - 1]
+                    ),
+                ));
+            }
+        }
+        Ok(Self {
+            keyframes: r
+                .t_s
+                .iter()
+                .zip(&r.rgb)
+                .map(|(t, l)| Keyframe {
+                    t_s: *t,
+                    radiance: *l,
+                })
+                .collect(),
+        })
+    }
+
+    /// Reads keyframe targets for `history` (read from the file named `history_source`).
+    pub fn read(
+        path: &Path,
+        history: &IrradianceHistory,
+        history_source: &str,
+    ) -> Result<Vec<Keyframe>> {
+        let (bytes, source) = read_input(path)?;
+        Ok(Self::parse(&bytes, &source, Some((history, history_source)))?.keyframes)
+    }
+
+    /// The CSV text.
+    pub fn to_csv(&self) -> String {
+        let t: Vec<f64> = self.keyframes.iter().map(|k| k.t_s).collect();
+        let l: Vec<[f64; 3]> = self.keyframes.iter().map(|k| k.radiance).collect();
+        rgb_rows_csv(TARGET_COLUMNS, &t, &l)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BOM: &str = "\u{feff}";
+
+    #[test]
+    fn a_curve_round_trips_through_its_csv_with_std_and_with_weight() {
+        for kind in [SigmaColumn::Std, SigmaColumn::Weight] {
+            let c = CurveCsv {
+                time_s: vec![0.0, 0.5, 1.25],
+                names: vec!["r".into(), "g".into(), "b".into()],
+                channels: vec![
+                    vec![3.0, 2.0, 1.0],
+                    vec![0.1, 0.05, 1e-7],
+                    vec![7.0, 6.5, 6.0],
+                ],
+                sigma: Some((kind, vec![0.25, 0.125, 1.0 / 3.0])),
+            };
+            let back = CurveCsv::parse(c.to_csv().as_bytes(), "c.csv").unwrap();
+            assert_eq!(back, c);
+        }
+    }
+
+    #[test]
+    fn a_curve_with_a_bom_and_crlf_is_read_and_a_duplicated_column_is_refused() {
+        let text = format!("{BOM}time_s,r,g,b\r\n0,3,2,1\r\n1,2,1,0.5\r\n2,1,0.5,0.2\r\n");
+        let c = CurveCsv::parse(text.as_bytes(), "c.csv").unwrap();
+        assert_eq!(c.time_s, vec![0.0, 1.0, 2.0]);
+        let e = CurveCsv::parse(b"time_s,r,r,b\n0,1,2,3\n", "c.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("c.csv") && e.contains("'r'"), "{e}");
+    }
+
+    #[test]
+    fn a_decreasing_curve_time_names_the_line() {
+        let e = CurveCsv::parse(b"time_s,v\n0,3\n2,2\n1,1\n", "c.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 4") && e.contains("decreasing"), "{e}");
+    }
+
+    #[test]
+    fn a_batch_round_trips_including_quoted_ids() {
+        let b = BatchCsv {
+            curves: vec![
+                BatchCurve {
+                    id: "a,\"1\"".into(),
+                    line: 2,
+                    t_s: vec![0.0, 1.0],
+                    rgb: [vec![1.0, 0.5], vec![2.0, 1.0], vec![3.0, 1.5]],
+                    std: Some(vec![0.1, 0.2]),
+                    lines: vec![2, 3],
+                },
+                BatchCurve {
+                    id: "b".into(),
+                    line: 4,
+                    t_s: vec![0.0, 2.0],
+                    rgb: [vec![1.0, 0.25], vec![2.0, 0.5], vec![3.0, 0.75]],
+                    std: Some(vec![0.1, 0.1]),
+                    lines: vec![4, 5],
+                },
+            ],
+        };
+        let text = format!("{BOM}{}", b.to_csv());
+        assert_eq!(BatchCsv::parse(text.as_bytes(), "b.csv").unwrap(), b);
+    }
+
+    #[test]
+    fn a_batch_with_a_duplicated_column_is_refused_with_the_line() {
+        let e = BatchCsv::parse(b"# c\nid,time_s,r,r,b\nx,0,1,2,3\n", "b.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("b.csv: line 2") && e.contains("'r' appears twice"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn batch_results_round_trip_through_the_csv_reader() {
+        let rows = vec![
+            BatchResultRow {
+                id: "c,1".into(),
+                n_states: Some(2),
+                k1_per_s: Some(0.5),
+                k2_per_s: Some(1e-3),
+                k3_per_s: None,
+                a1: Some(2.0),
+                a2: Some(0.25),
+                a3: None,
+                spectrum_r: Some(1.0),
+                spectrum_g: Some(0.5),
+                spectrum_b: Some(0.125),
+                rms: Some(1.5e-4),
+                flags: "rate_poorly_determined;singular_covariance".into(),
+            },
+            BatchResultRow::failed("d", "curve \"d\": fewer than 3 samples"),
+        ];
+        let text = BatchResultRow::to_csv(&rows);
+        assert!(text.starts_with(BATCH_HEADER));
+        let back = BatchResultRow::parse(text.as_bytes(), "out.csv").unwrap();
+        assert_eq!(back, rows);
+        assert!(back[1].is_error() && !back[0].is_error());
+    }
+
+    #[test]
+    fn a_history_round_trips_and_refuses_a_wrong_band_count() {
+        let h = HistoryCsv {
+            names: vec!["e1".into(), "e2".into()],
+            segments: vec![
+                Segment {
+                    duration_s: 60.0,
+                    irradiance: vec![1.0, 0.5],
+                },
+                Segment {
+                    duration_s: 0.25,
+                    irradiance: vec![0.0, 0.0],
+                },
+            ],
+        };
+        let text = format!("{BOM}{}", h.to_csv());
+        assert_eq!(HistoryCsv::parse(text.as_bytes(), "h.csv", 2).unwrap(), h);
+        let e = HistoryCsv::parse(text.as_bytes(), "h.csv", 3)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("h.csv: line 1") && e.contains("3 bands"), "{e}");
+    }
+
+    #[test]
+    fn charging_data_round_trip() {
+        let d = ChargingCsv {
+            samples: vec![
+                ChargingSample {
+                    band: 0,
+                    charge_s: 1.0,
+                    rgb: [0.5, 0.25, 0.125],
+                    sigma: Some(0.01),
+                },
+                ChargingSample {
+                    band: 2,
+                    charge_s: 512.0,
+                    rgb: [1.5, 1e-9, 0.0],
+                    sigma: Some(2e-3),
+                },
+            ],
+        };
+        let text = format!("{BOM}{}", d.to_csv());
+        assert_eq!(ChargingCsv::parse(text.as_bytes(), "d.csv", 3).unwrap(), d);
+        let e = ChargingCsv::parse(text.as_bytes(), "d.csv", 2)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("d.csv: line 3") && e.contains("band 3"), "{e}");
+    }
+
+    #[test]
+    fn box_sources_round_trip_and_give_one_unit_band_each() {
+        let ranges = [[400.0, 450.0], [450.0, 500.0], [500.0, 550.0]];
+        let s = SourceSpectraCsv::boxes(&ranges, 2);
+        let back = SourceSpectraCsv::parse(s.to_csv().as_bytes(), "s.csv").unwrap();
+        assert_eq!(back.wavelength_nm, s.wavelength_nm);
+        assert_eq!(back.bands, s.bands);
+        let unit = back.unit_irradiance(&ranges, &[0, 1]).unwrap();
+        for (j, v) in &unit {
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            assert!((norm - 1.0).abs() < 1e-12, "{norm}");
+            let top = v.iter().cloned().fold(0.0, f64::max);
+            assert_eq!(v.iter().position(|x| *x == top), Some(*j));
+        }
+        let e = back.unit_irradiance(&ranges, &[2]).unwrap_err().to_string();
+        assert!(e.contains("no column for band 3"), "{e}");
+    }
+
+    #[test]
+    fn design_history_and_keyframes_round_trip() {
+        let h = DesignHistoryCsv {
+            history: IrradianceHistory {
+                t_s: vec![0.0, 10.0, 20.5],
+                e: vec![[1.0, 1.0, 1.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.0]],
+            },
+        };
+        let text = format!("{BOM}{}", h.to_csv());
+        assert_eq!(
+            DesignHistoryCsv::parse(text.as_bytes(), "h.csv").unwrap(),
+            h
+        );
+        let k = KeyframesCsv {
+            keyframes: vec![
+                Keyframe {
+                    t_s: 5.0,
+                    radiance: [0.1, 0.2, 0.3],
+                },
+                Keyframe {
+                    t_s: 25.0,
+                    radiance: [0.01, 0.02, 0.03],
+                },
+            ],
+        };
+        let text = format!("{BOM}{}", k.to_csv());
+        assert_eq!(
+            KeyframesCsv::parse(text.as_bytes(), "k.csv", Some((&h.history, "h.csv"))).unwrap(),
+            k
+        );
+    }
+
+    #[test]
+    fn keyframes_that_go_back_in_time_are_refused_with_the_line() {
+        let e = KeyframesCsv::parse(
+            b"time_s,l_r,l_g,l_b\n10,1,1,1\n# later\n5,1,1,1\n",
+            "k.csv",
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("k.csv: line 4") && e.contains("decreasing"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_simulation_table_round_trips() {
+        let s = SimulationCsv {
+            header: vec!["L_r".into(), "r_1".into()],
+            t_s: vec![0.0, 1.0],
+            rows: vec![vec![0.5, 0.25], vec![0.125, 1e-300]],
+        };
+        assert_eq!(
+            SimulationCsv::parse(s.to_csv().as_bytes(), "s.csv").unwrap(),
+            s
+        );
+    }
+}
