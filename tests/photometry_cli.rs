@@ -281,3 +281,44 @@ fn every_data_file_inspects_with_exit_0() {
     }
     assert_eq!(n, 15);
 }
+
+#[test]
+fn light_preset_holds_the_full_grid_and_the_source_hash_and_validates() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let out = p(dir.path(), "light.json");
+    let o = lumifit(&[
+        "light",
+        "preset",
+        f.to_str().unwrap(),
+        "--rect",
+        "0.6,0.3",
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(lumifit(&["preset", "validate", &out]).status.success());
+    let preset = lumifit::preset::read_light(std::path::Path::new(&out)).unwrap();
+    let grid = lumifit::preset::photometric::grid_from_section(&preset.photometric, &out).unwrap();
+    let file = lumifit::io::read_photometric(&f, 0.0).unwrap();
+    assert_eq!(
+        grid, file.photometry.grid,
+        "the preset's grid is the file's, bit for bit"
+    );
+    assert_eq!(
+        preset.photometric["emitter_rect_m"],
+        serde_json::json!([0.6, 0.3])
+    );
+    let sha = lumifit::preset::sha256_hex(LAMBERT_IES.as_bytes());
+    assert_eq!(preset.provenance.inputs[0].sha256, sha);
+    let o = lumifit(&[
+        "light",
+        "preset",
+        f.to_str().unwrap(),
+        "--rect",
+        "-1,1",
+        "--out",
+        &p(dir.path(), "x.json"),
+    ]);
+    assert_rejected(&o, &["--rect"]);
+}

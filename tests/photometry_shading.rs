@@ -279,3 +279,82 @@ fn c_zero_points_along_u_and_c_ninety_along_v() {
         assert!(e[0].e_lux > 1.5 * e[2].e_lux, "{}: {:?}", m.name(), e);
     }
 }
+
+#[test]
+fn on_a_real_profile_the_adaptive_cubature_agrees_with_monte_carlo() {
+    // Prolicht E30 (lidrs example.ldt, real measurement with up-light) as a 1 × 1 m emitter 0.25 m
+    // above the ground and beside a wall; MC at 2·10⁵ samples is the unbiased reference.
+    let d = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/photometric/lidrs_MIT/example.ldt");
+    if !d.is_file() {
+        assert!(
+            std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+            "LUMIFIT_REQUIRE_DATA=1 but {} is absent",
+            d.display()
+        );
+        eprintln!("skipping: {} is absent", d.display());
+        return;
+    }
+    let f = lumifit::io::read_photometric(&d, 0.0).unwrap();
+    let g = &f.photometry.grid;
+    let light = light_at(0.25);
+    let pts = [
+        Receiver {
+            p: [0.0, 0.0, 0.0],
+            n: [0.0, 0.0, 1.0],
+        },
+        Receiver {
+            p: [0.4, -0.3, 0.0],
+            n: [0.0, 0.0, 1.0],
+        },
+        Receiver {
+            p: [1.5, 0.5, 0.0],
+            n: [0.0, 0.0, 1.0],
+        },
+        // a wall at x = 0.8 facing the light, at the light's height and above it (up-light)
+        Receiver {
+            p: [0.8, 0.0, 0.25],
+            n: [-1.0, 0.0, 0.0],
+        },
+        Receiver {
+            p: [0.8, 0.1, 0.6],
+            n: [-1.0, 0.0, 0.0],
+        },
+    ];
+    let mc = illuminance(
+        &light,
+        g,
+        &pts,
+        Method::Mc {
+            samples: 200_000,
+            seed: 11,
+        },
+    )
+    .unwrap();
+    let ad = illuminance(
+        &light,
+        g,
+        &pts,
+        Method::CubatureAdaptive { tolerance: 0.01 },
+    )
+    .unwrap();
+    let cu = illuminance(&light, g, &pts, Method::Cubature).unwrap();
+    for ((m, a), c) in mc.iter().zip(&ad).zip(&cu) {
+        let sd = m.e_std.unwrap();
+        eprintln!(
+            "mc {:.4} ± {sd:.4}, adaptive {:.4} ({:+.4}), cubature {:.4} ({:+.4})",
+            m.e_lux,
+            a.e_lux,
+            a.e_lux / m.e_lux - 1.0,
+            c.e_lux,
+            c.e_lux / m.e_lux - 1.0
+        );
+        // 3 % (the bound) plus the reference's own 3σ
+        assert!(
+            (a.e_lux - m.e_lux).abs() <= ADAPTIVE_REL * m.e_lux + 3.0 * sd,
+            "adaptive {} vs mc {} ± {sd}",
+            a.e_lux,
+            m.e_lux
+        );
+    }
+}

@@ -28,6 +28,7 @@
 //! file is left untouched.
 
 mod file;
+pub mod photometric;
 mod provenance;
 mod types;
 mod validate;

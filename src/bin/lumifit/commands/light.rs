@@ -23,6 +23,27 @@ pub enum LightCommand {
     Convert(ConvertArgs),
     /// Illuminance on receiving points from a photometric rectangle.
     Illuminance(IlluminanceArgs),
+    /// A `lumifit.light/1` preset: the full candela grid, flux, emitter rectangle and frame,
+    /// with the source file's SHA-256 in the provenance.
+    Preset(PresetArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct PresetArgs {
+    /// IES or EULUMDAT file.
+    pub file: PathBuf,
+    /// Emitter size W,H in m (default: the file's luminous opening).
+    #[arg(long, value_name = "W,H", allow_hyphen_values = true)]
+    pub rect: Option<String>,
+    /// Preset name (default: the file's stem).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Lamp tilt in degrees at which an IES TILT table is applied.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub lamp_tilt: f64,
+    /// Output preset JSON.
+    #[arg(long, value_name = "light.json")]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -74,7 +95,7 @@ pub struct IlluminanceArgs {
     pub light: PathBuf,
     /// Emitter size W,H in m (W along u = C0, H along v = C90); default: the file's luminous
     /// opening (length, width).
-    #[arg(long, value_name = "W,H")]
+    #[arg(long, value_name = "W,H", allow_hyphen_values = true)]
     pub rect: Option<String>,
     /// Centre of the rectangle, m.
     #[arg(long, value_name = "x,y,z", allow_hyphen_values = true)]
@@ -114,6 +135,7 @@ pub fn run(c: LightCommand) -> Result<()> {
         LightCommand::Inspect(a) => inspect(&a),
         LightCommand::Convert(a) => convert(&a),
         LightCommand::Illuminance(a) => shade(&a),
+        LightCommand::Preset(a) => preset(&a),
     }
 }
 
@@ -308,16 +330,7 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
     out.declare("--out", &a.out)?;
     let m = method(a)?;
     let f = read(&a.light, a.lamp_tilt)?;
-    let (w, h) = match &a.rect {
-        Some(r) => parse_pair("--rect", r)?,
-        None => {
-            let o = f.photometry.opening;
-            if !(o.length_m > 0.0 && o.width_m > 0.0) {
-                anyhow::bail!("--rect: {} declares no rectangular luminous opening ({:?} {} × {} m); give --rect W,H", a.light.display(), o.shape, o.length_m, o.width_m);
-            }
-            (o.length_m, o.width_m)
-        }
-    };
+    let (w, h) = rect(a.rect.as_deref(), &f, &a.light)?;
     let light = RectLight::new(
         parse_triplet("--center", &a.center)?,
         parse_triplet("--normal", &a.normal)?,
@@ -396,4 +409,47 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
         })
         .to_string(),
     )
+}
+
+/// `--rect W,H`, or the file's luminous opening (length along C0, width along C90).
+fn rect(arg: Option<&str>, f: &PhotometricFile, path: &std::path::Path) -> Result<(f64, f64)> {
+    match arg {
+        Some(r) => parse_pair("--rect", r),
+        None => {
+            let o = f.photometry.opening;
+            if !(o.length_m > 0.0 && o.width_m > 0.0) {
+                anyhow::bail!(
+                    "--rect: {} declares no rectangular luminous opening ({:?} {} × {} m); give --rect W,H",
+                    path.display(),
+                    o.shape,
+                    o.length_m,
+                    o.width_m
+                );
+            }
+            Ok((o.length_m, o.width_m))
+        }
+    }
+}
+
+fn preset(a: &PresetArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.file);
+    out.declare("--out", &a.out)?;
+    let f = read(&a.file, a.lamp_tilt)?;
+    let (w, h) = rect(a.rect.as_deref(), &f, &a.file)?;
+    let section = lumifit::preset::photometric::photometric_section(&f, w, h)?;
+    let (bytes, _) = lumifit::io::read_input(&a.file)?;
+    let name = a.name.clone().unwrap_or_else(|| {
+        a.file
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "light".into())
+    });
+    let provenance =
+        lumifit::preset::Provenance::new("light preset", &[(&a.file, bytes.as_slice())]);
+    let p = lumifit::preset::LightPreset::new(name, provenance, section);
+    let text = lumifit::preset::to_json_string(&p)?;
+    out.stage(&a.out, text.as_bytes())?;
+    out.commit()?;
+    emit(&json!({"in": a.file.display().to_string(), "out": a.out.display().to_string(), "rect_m": [w, h]}).to_string())
 }
