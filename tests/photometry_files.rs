@@ -505,3 +505,65 @@ fn mutated_files_never_panic_the_readers() {
         );
     }
 }
+
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    // v' = v + 2w (q×v) + 2 q×(q×v)
+    let (x, y, z, w) = (q[0], q[1], q[2], q[3]);
+    let c1 = [
+        y * v[2] - z * v[1],
+        z * v[0] - x * v[2],
+        x * v[1] - y * v[0],
+    ];
+    let c2 = [
+        y * c1[2] - z * c1[1],
+        z * c1[0] - x * c1[2],
+        x * c1[1] - y * c1[0],
+    ];
+    [
+        v[0] + 2.0 * (w * c1[0] + c2[0]),
+        v[1] + 2.0 * (w * c1[1] + c2[1]),
+        v[2] + 2.0 * (w * c1[2] + c2[2]),
+    ]
+}
+
+#[test]
+fn gltf_export_aims_the_node_down_its_normal_and_writes_an_ies_that_lights_the_same_directions() {
+    use lumifit::photometry::illuminance::RectLight;
+    // an asymmetric profile: 100 cd towards C 0–90, 10 cd elsewhere, full circle
+    let text = "IES:LM-63-2019\n[TEST] t\nTILT=NONE\n1 -1 1 2 5 1 2 0.6 0.3 0\n1 1.00001 0\n0 90\n0 90 180 270 360\n100 100 50 50 10 10 10 10 100 100\n";
+    let f = parse_ies(text.as_bytes(), "asym.ies", &no_tilt, 0.0).unwrap();
+    let light =
+        RectLight::new([1.0, 2.0, 3.0], [0.0, 0.6, -0.8], [1.0, 0.0, 0.0], 0.6, 0.3).unwrap();
+    let (doc, ies) =
+        lumifit::preset::photometric::gltf_light(&f, &light, "asym", "asym.ies").unwrap();
+    assert_eq!(doc["asset"]["version"], "2.0");
+    assert_eq!(doc["nodes"][0]["extensions"]["EXT_lights_ies"]["light"], 0);
+    assert_eq!(
+        doc["extensions"]["EXT_lights_ies"]["lights"][0]["uri"],
+        "asym.ies"
+    );
+    let q: Vec<f64> = doc["nodes"][0]["rotation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let q = [q[0], q[1], q[2], q[3]];
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
+    assert!(close(rotate(q, [0.0, 0.0, -1.0]), light.n), "−Z → n");
+    assert!(close(rotate(q, [1.0, 0.0, 0.0]), light.u), "+X → u");
+    // the written IES, read in the node's frame, gives lumifit's intensity for every world direction
+    let back = parse_ies(&ies, "export.ies", &no_tilt, 0.0).unwrap();
+    for d in [[0.3, 0.5, -0.8], [-0.6, 0.1, -0.2], [0.2, -0.9, 0.1]] {
+        let local = [0, 1, 2].map(|k| {
+            let axis = rotate(q, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]][k]);
+            axis[0] * d[0] + axis[1] * d[1] + axis[2] * d[2]
+        });
+        let want = light.intensity(&f.photometry.grid, d);
+        let got = back.photometry.grid.intensity_dir(local);
+        assert!(
+            (want - got).abs() < 1e-9 * want.max(1.0),
+            "{d:?}: lumifit {want} vs glTF {got}"
+        );
+    }
+}
