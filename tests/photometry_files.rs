@@ -567,3 +567,52 @@ fn gltf_export_aims_the_node_down_its_normal_and_writes_an_ies_that_lights_the_s
         );
     }
 }
+
+#[test]
+fn tilt_from_a_file_beside_the_ies_is_applied_and_a_missing_one_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let ies = GOOD_IES.replace("TILT=NONE", "TILT=lamp.tlt");
+    std::fs::write(dir.path().join("a.ies"), &ies).unwrap();
+    let e = read_photometric(&dir.path().join("a.ies"), 0.0)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("lamp.tlt"), "{e}");
+    std::fs::write(dir.path().join("lamp.tlt"), "1\n3\n0 45 90\n1 0.8 0.5\n").unwrap();
+    let f = read_photometric(&dir.path().join("a.ies"), 22.5).unwrap();
+    assert_eq!(f.photometry.tilt_applied, (22.5, 0.9));
+    assert_eq!(f.photometry.grid.at(0, 0), 100.0 * 0.9);
+    match &f.photometry.tilt {
+        Tilt::Table { source, .. } => assert_eq!(source, "lamp.tlt"),
+        t => panic!("{t:?}"),
+    }
+}
+
+#[test]
+fn type_b_with_lateral_symmetry_is_mirrored_and_aimed_at_nadir() {
+    // Type B, H 0–90 (mirrored to −H), V −90…90
+    let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 2 2 2 0 0 0\n1 1 0\n-90 0 90\n0 90\n5 100 7 0 20 0\n";
+    let f = parse_ies(text.as_bytes(), "b.ies", &no_tilt, 0.0).unwrap();
+    let g = &f.photometry.grid;
+    assert_eq!(g.kind, PhotometricType::B);
+    assert_eq!(f.photometry.symmetry, Symmetry::LateralAB);
+    assert_eq!(g.h_deg, vec![-90.0, 0.0, 90.0]);
+    assert_eq!(g.intensity(-90.0, 0.0), g.intensity(90.0, 0.0));
+    // H = V = 0 is the photometric axis, nadir −z
+    assert_eq!(g.intensity_dir([0.0, 0.0, -1.0]), 100.0);
+    // V = 90 turns towards +x in the plane H = 0; H = 90 is the polar axis +y
+    assert_eq!(g.intensity_dir([1.0, 0.0, 0.0]), 7.0);
+    assert_eq!(g.intensity_dir([0.0, 1.0, 0.0]), 20.0);
+    assert!(summary(&f.photometry).flux_lm > 0.0);
+    let back = parse_ies(
+        write_ies(&f, "t").unwrap().as_bytes(),
+        "b2.ies",
+        &no_tilt,
+        0.0,
+    )
+    .unwrap();
+    assert_eq!(back.photometry.grid, f.photometry.grid);
+    assert!(write_ldt(&f, "t")
+        .unwrap_err()
+        .to_string()
+        .contains("Type C only"));
+}
