@@ -462,7 +462,7 @@ fn broken_eulumdat_files_are_refused_naming_file_line_and_field() {
 
 #[test]
 fn mutated_files_never_panic_the_readers() {
-    // A proptest-style generator: 20,000 mutations (byte flips, deletions, duplications,
+    // A proptest-style generator: 100,000 mutations (byte flips, deletions, duplications,
     // digit swaps) of a good IES and a good EULUMDAT file; every one must return Ok or Err.
     let ies = GOOD_IES.as_bytes().to_vec();
     let ldt = good_ldt().into_bytes();
@@ -474,7 +474,7 @@ fn mutated_files_never_panic_the_readers() {
         state
     };
     let alphabet = b"0123456789-.eE ,\n[]TILT=NONE+";
-    for round in 0..20_000 {
+    for round in 0..100_000 {
         let base = if round % 2 == 0 { &ies } else { &ldt };
         let mut m = base.clone();
         for _ in 0..1 + next() % 4 {
@@ -504,4 +504,115 @@ fn mutated_files_never_panic_the_readers() {
             String::from_utf8_lossy(&m)
         );
     }
+}
+
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    // v' = v + 2w (q×v) + 2 q×(q×v)
+    let (x, y, z, w) = (q[0], q[1], q[2], q[3]);
+    let c1 = [
+        y * v[2] - z * v[1],
+        z * v[0] - x * v[2],
+        x * v[1] - y * v[0],
+    ];
+    let c2 = [
+        y * c1[2] - z * c1[1],
+        z * c1[0] - x * c1[2],
+        x * c1[1] - y * c1[0],
+    ];
+    [
+        v[0] + 2.0 * (w * c1[0] + c2[0]),
+        v[1] + 2.0 * (w * c1[1] + c2[1]),
+        v[2] + 2.0 * (w * c1[2] + c2[2]),
+    ]
+}
+
+#[test]
+fn gltf_export_aims_the_node_down_its_normal_and_writes_an_ies_that_lights_the_same_directions() {
+    use lumifit::photometry::illuminance::RectLight;
+    // an asymmetric profile: 100 cd towards C 0–90, 10 cd elsewhere, full circle
+    let text = "IES:LM-63-2019\n[TEST] t\nTILT=NONE\n1 -1 1 2 5 1 2 0.6 0.3 0\n1 1.00001 0\n0 90\n0 90 180 270 360\n100 100 50 50 10 10 10 10 100 100\n";
+    let f = parse_ies(text.as_bytes(), "asym.ies", &no_tilt, 0.0).unwrap();
+    let light =
+        RectLight::new([1.0, 2.0, 3.0], [0.0, 0.6, -0.8], [1.0, 0.0, 0.0], 0.6, 0.3).unwrap();
+    let (doc, ies) =
+        lumifit::preset::photometric::gltf_light(&f, &light, "asym", "asym.ies").unwrap();
+    assert_eq!(doc["asset"]["version"], "2.0");
+    assert_eq!(doc["nodes"][0]["extensions"]["EXT_lights_ies"]["light"], 0);
+    assert_eq!(
+        doc["extensions"]["EXT_lights_ies"]["lights"][0]["uri"],
+        "asym.ies"
+    );
+    let q: Vec<f64> = doc["nodes"][0]["rotation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let q = [q[0], q[1], q[2], q[3]];
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
+    assert!(close(rotate(q, [0.0, 0.0, -1.0]), light.n), "−Z → n");
+    assert!(close(rotate(q, [1.0, 0.0, 0.0]), light.u), "+X → u");
+    // the written IES, read in the node's frame, gives lumifit's intensity for every world direction
+    let back = parse_ies(&ies, "export.ies", &no_tilt, 0.0).unwrap();
+    for d in [[0.3, 0.5, -0.8], [-0.6, 0.1, -0.2], [0.2, -0.9, 0.1]] {
+        let local = [0, 1, 2].map(|k| {
+            let axis = rotate(q, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]][k]);
+            axis[0] * d[0] + axis[1] * d[1] + axis[2] * d[2]
+        });
+        let want = light.intensity(&f.photometry.grid, d);
+        let got = back.photometry.grid.intensity_dir(local);
+        assert!(
+            (want - got).abs() < 1e-9 * want.max(1.0),
+            "{d:?}: lumifit {want} vs glTF {got}"
+        );
+    }
+}
+
+#[test]
+fn tilt_from_a_file_beside_the_ies_is_applied_and_a_missing_one_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let ies = GOOD_IES.replace("TILT=NONE", "TILT=lamp.tlt");
+    std::fs::write(dir.path().join("a.ies"), &ies).unwrap();
+    let e = read_photometric(&dir.path().join("a.ies"), 0.0)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("lamp.tlt"), "{e}");
+    std::fs::write(dir.path().join("lamp.tlt"), "1\n3\n0 45 90\n1 0.8 0.5\n").unwrap();
+    let f = read_photometric(&dir.path().join("a.ies"), 22.5).unwrap();
+    assert_eq!(f.photometry.tilt_applied, (22.5, 0.9));
+    assert_eq!(f.photometry.grid.at(0, 0), 100.0 * 0.9);
+    match &f.photometry.tilt {
+        Tilt::Table { source, .. } => assert_eq!(source, "lamp.tlt"),
+        t => panic!("{t:?}"),
+    }
+}
+
+#[test]
+fn type_b_with_lateral_symmetry_is_mirrored_and_aimed_at_nadir() {
+    // Type B, H 0–90 (mirrored to −H), V −90…90
+    let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 2 2 2 0 0 0\n1 1 0\n-90 0 90\n0 90\n5 100 7 0 20 0\n";
+    let f = parse_ies(text.as_bytes(), "b.ies", &no_tilt, 0.0).unwrap();
+    let g = &f.photometry.grid;
+    assert_eq!(g.kind, PhotometricType::B);
+    assert_eq!(f.photometry.symmetry, Symmetry::LateralAB);
+    assert_eq!(g.h_deg, vec![-90.0, 0.0, 90.0]);
+    assert_eq!(g.intensity(-90.0, 0.0), g.intensity(90.0, 0.0));
+    // H = V = 0 is the photometric axis, nadir −z
+    assert_eq!(g.intensity_dir([0.0, 0.0, -1.0]), 100.0);
+    // V = 90 turns towards +x in the plane H = 0; H = 90 is the polar axis +y
+    assert_eq!(g.intensity_dir([1.0, 0.0, 0.0]), 7.0);
+    assert_eq!(g.intensity_dir([0.0, 1.0, 0.0]), 20.0);
+    assert!(summary(&f.photometry).flux_lm > 0.0);
+    let back = parse_ies(
+        write_ies(&f, "t").unwrap().as_bytes(),
+        "b2.ies",
+        &no_tilt,
+        0.0,
+    )
+    .unwrap();
+    assert_eq!(back.photometry.grid, f.photometry.grid);
+    assert!(write_ldt(&f, "t")
+        .unwrap_err()
+        .to_string()
+        .contains("Type C only"));
 }

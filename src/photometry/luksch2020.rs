@@ -29,13 +29,17 @@
 //! at the corners. The adaptive variant starts from the same fan and splits each triangle into
 //! four at its edge midpoints (on the emitter's plane) while
 //!
+//! - it has not been split once yet (every fan triangle is split at least once), or
 //! - its solid angle exceeds 0.25 sr, or
 //! - the four children's Eq. 10 sum differs from the parent's by more than
-//!   `tolerance`·(|children| + E₀·|Δ|/Ω), E₀ the paper's estimate and Ω the clipped polygon's
-//!   solid angle (so tiny, dim triangles are not refined for nothing),
+//!   ½·`tolerance`·(|children| + E₀·|Δ|/Ω) + 10⁻¹²·E₀/Ω, E₀ the paper's estimate and Ω the
+//!   clipped polygon's solid angle (so tiny, dim triangles and the slivers of a CP on an edge
+//!   are not refined for nothing),
 //!
-//! up to depth 10. The refined sum is returned. Cost and accuracy against the paper's method are
-//! in `docs/photometry.md`.
+//! up to depth 10. The refined sum is returned. On the Lambertian check (1 × 1 emitter at 0.1
+//! over a 4 × 4 m patch, 33 × 33 points) the default tolerance 0.01 gives ≤ 0.46 % error
+//! everywhere (the paper's fan: 30.5 % worst, 3.0 % median) at a mean of 268 triangles per
+//! point instead of 4; cost and accuracy per height are in `docs/photometry.md`.
 
 use super::illuminance::{
     add, clip_to_horizon, cross, dot, normalize, scale, sub, triangle_solid_angle, Receiver,
@@ -47,6 +51,8 @@ use super::CandelaGrid;
 pub const SHIFT_EPSILON: f64 = 1e-6;
 /// Largest solid angle (sr) an adaptive triangle may keep.
 pub const MAX_TRIANGLE_SR: f64 = 0.25;
+/// Every fan triangle is split at least this many times.
+pub const MIN_DEPTH: u32 = 1;
 /// Deepest subdivision of one fan triangle.
 pub const MAX_DEPTH: u32 = 10;
 
@@ -207,8 +213,12 @@ impl Refine<'_> {
         for k in &kids {
             e_c += self.ctx.eq10(&k.0, &k.1, &k.2).0;
         }
-        let allowed = self.tol * (e_c.abs() + self.floor_per_sr * omega);
-        if omega <= MAX_TRIANGLE_SR && (e_c - e_p).abs() <= allowed {
+        // Half the tolerance against the estimate (the children's sum is kept, so its error is
+        // about a third of the difference for a smooth integrand); the absolute floor stops
+        // slivers (CP on an edge: |Δ| ≈ 1e-17 sr) from refining rounding noise.
+        let allowed =
+            0.5 * self.tol * (e_c.abs() + self.floor_per_sr * omega) + 1e-12 * self.floor_per_sr;
+        if depth >= MIN_DEPTH && omega <= MAX_TRIANGLE_SR && (e_c - e_p).abs() <= allowed {
             let g_c: f64 = kids.iter().map(|k| self.ctx.eq10(&k.0, &k.1, &k.2).1).sum();
             self.triangles += 4;
             return (e_c, g_c);

@@ -333,13 +333,22 @@ impl CandelaGrid {
             PhotometricType::B => {
                 // d = cos H (cos V (−z) + sin V x) + sin H y
                 let hh = y.clamp(-1.0, 1.0).asin().to_degrees();
-                let v = x.atan2(-z).to_degrees();
+                // at the poles (±y) V is undefined; every plane meets there
+                let v = if x == 0.0 && z == 0.0 {
+                    0.0
+                } else {
+                    x.atan2(-z).to_degrees()
+                };
                 self.intensity(hh, v)
             }
             PhotometricType::A => {
                 // d = cos H (cos V (−z) + sin V y) − sin H x
                 let hh = (-x).clamp(-1.0, 1.0).asin().to_degrees();
-                let v = y.atan2(-z).to_degrees();
+                let v = if y == 0.0 && z == 0.0 {
+                    0.0
+                } else {
+                    y.atan2(-z).to_degrees()
+                };
                 self.intensity(hh, v)
             }
         }

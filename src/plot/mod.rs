@@ -36,6 +36,7 @@ pub mod lvf_bands;
 mod phosphor;
 mod phosphor_excitation;
 pub mod phosphor_sim;
+pub mod photometry;
 pub mod recovery;
 mod spectra;
 mod text;

@@ -31,6 +31,7 @@ pub mod afterimage;
 mod file;
 pub mod fluorescence;
 pub mod phosphor;
+pub mod photometric;
 mod provenance;
 pub mod shader;
 mod types;

@@ -30,6 +30,9 @@ pub enum Command {
     /// Fluorescence: reduce Donaldson (bispectral) matrices for RGB/XYZ renderers (Fichet 2024).
     #[command(subcommand)]
     Fluor(crate::commands::fluor::FluorCommand),
+    /// Photometric lights: inspect and convert IES/EULUMDAT files, shade photometric rectangles.
+    #[command(subcommand)]
+    Light(crate::commands::light::LightCommand),
     /// Phosphorescence: simulate the rate equation and fit decays (Nalbach 2017).
     #[command(subcommand)]
     Phos(crate::commands::PhosCommands),

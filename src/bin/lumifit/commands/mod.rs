@@ -5,6 +5,7 @@ pub mod afterimage;
 pub mod color;
 pub mod demo;
 pub mod fluor;
+pub mod light;
 pub mod lvf;
 pub mod lvf_transmission;
 pub mod phos;
@@ -61,6 +62,7 @@ pub fn run(cli: Cli) -> Result<()> {
             emit(&serde_json::to_string_pretty(&report)?)
         }
         Command::Fluor(c) => fluor::run(c),
+        Command::Light(c) => light::run(c),
         Command::Phos(PhosCommands::Decay(c)) => phos::run(c),
         Command::Phos(PhosCommands::Excitation(c)) => phos_excitation::run(c),
         Command::Synth(SynthCommands::Phos(c)) => synth::run(c),

@@ -1,0 +1,455 @@
+//! `lumifit light …`: photometric files (IES LM-63, EULUMDAT) — inspect, convert, and shade a
+//! photometric rectangle (Luksch et al. 2020).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand, ValueEnum};
+use lumifit::io::Outputs;
+use lumifit::photometry::illuminance::{illuminance, Method, Receiver, RectLight};
+use lumifit::photometry::{summary, FileFormat, PhotometricFile, Tilt};
+use serde_json::json;
+
+use super::{emit, parse_triplet};
+
+/// Subcommands of `lumifit light`.
+#[derive(Debug, Subcommand)]
+pub enum LightCommand {
+    /// What a photometric file says: format, type, symmetry, grid, max candela, flux from the
+    /// grid beside the declared lumens, LOR/DLOR/ULOR, beam and field angles, TILT.
+    Inspect(InspectArgs),
+    /// Write a photometric file as IES LM-63-2019 (.ies) or EULUMDAT (.ldt), by the output's
+    /// extension; the candela grid reads back unchanged.
+    Convert(ConvertArgs),
+    /// Illuminance on receiving points from a photometric rectangle.
+    Illuminance(IlluminanceArgs),
+    /// A `lumifit.light/1` preset: the full candela grid, flux, emitter rectangle and frame,
+    /// with the source file's SHA-256 in the provenance.
+    Preset(PresetArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct PresetArgs {
+    /// IES or EULUMDAT file.
+    pub file: PathBuf,
+    /// Emitter size W,H in m (default: the file's luminous opening).
+    #[arg(long, value_name = "W,H", allow_hyphen_values = true)]
+    pub rect: Option<String>,
+    /// Preset name (default: the file's stem).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Lamp tilt in degrees at which an IES TILT table is applied.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub lamp_tilt: f64,
+    /// Output preset JSON.
+    #[arg(long, value_name = "light.json")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct InspectArgs {
+    /// IES or EULUMDAT file.
+    pub file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Datasheet polar plot (PNG) of the C0–C180 and C90–C270 curves.
+    #[arg(long, value_name = "FILE.png")]
+    pub plot: Option<PathBuf>,
+    /// Lamp tilt in degrees at which an IES TILT table is applied (0 = as photometered).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub lamp_tilt: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// IES or EULUMDAT file.
+    pub file: PathBuf,
+    /// Output: `.ies` (LM-63-2019) or `.ldt` (EULUMDAT).
+    #[arg(long, value_name = "FILE.ies|FILE.ldt")]
+    pub out: PathBuf,
+    /// Lamp tilt in degrees at which an IES TILT table is applied before writing.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub lamp_tilt: f64,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MethodArg {
+    /// Point light at the centre.
+    Point,
+    /// Uniform Monte Carlo over the rectangle (unbiased, with its standard error).
+    Mc,
+    /// Structured sampling: corners + barycentre (Eq. 4).
+    Structured,
+    /// Most representative point (Drobot 2014).
+    Mrp,
+    /// The paper's cubature (Eq. 6–11, §5.3).
+    Cubature,
+    /// The cubature refined adaptively to --tolerance.
+    CubatureAdaptive,
+}
+
+#[derive(Debug, Args)]
+pub struct IlluminanceArgs {
+    /// IES or EULUMDAT file.
+    pub light: PathBuf,
+    /// Emitter size W,H in m (W along u = C0, H along v = C90); default: the file's luminous
+    /// opening (length, width).
+    #[arg(long, value_name = "W,H", allow_hyphen_values = true)]
+    pub rect: Option<String>,
+    /// Centre of the rectangle, m.
+    #[arg(long, value_name = "x,y,z", allow_hyphen_values = true)]
+    pub center: String,
+    /// Emitting normal (γ = 0).
+    #[arg(long, value_name = "nx,ny,nz", allow_hyphen_values = true)]
+    pub normal: String,
+    /// Up vector: its part perpendicular to --normal is u (C = 0°); v = n × u is C = 90°.
+    #[arg(long, value_name = "ux,uy,uz", allow_hyphen_values = true)]
+    pub up: String,
+    /// Receiving points: CSV with columns x,y,z,nx,ny,nz (m; unit normals).
+    #[arg(long, value_name = "points.csv")]
+    pub points: PathBuf,
+    /// Shading method.
+    #[arg(long, value_enum, default_value = "cubature")]
+    pub method: MethodArg,
+    /// Monte Carlo samples per point (mc only).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Monte Carlo seed (mc only).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Relative tolerance (cubature-adaptive only).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+    /// Lamp tilt in degrees at which an IES TILT table is applied.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub lamp_tilt: f64,
+    /// Output CSV: the points, E_lux, and E_std (mc) or Le_bar (cubature methods).
+    #[arg(long, value_name = "E.csv")]
+    pub out: PathBuf,
+}
+
+/// Dispatches `lumifit light …`.
+pub fn run(c: LightCommand) -> Result<()> {
+    match c {
+        LightCommand::Inspect(a) => inspect(&a),
+        LightCommand::Convert(a) => convert(&a),
+        LightCommand::Illuminance(a) => shade(&a),
+        LightCommand::Preset(a) => preset(&a),
+    }
+}
+
+fn read(path: &std::path::Path, lamp_tilt: f64) -> Result<PhotometricFile> {
+    if !lamp_tilt.is_finite() {
+        anyhow::bail!("--lamp-tilt: expected a finite angle in degrees");
+    }
+    Ok(lumifit::io::read_photometric(path, lamp_tilt)?)
+}
+
+fn inspect(a: &InspectArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.file);
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
+    }
+    let f = read(&a.file, a.lamp_tilt)?;
+    let p = &f.photometry;
+    let s = summary(p);
+    lumifit::error::ensure_finite(
+        "flux",
+        &a.file.display().to_string(),
+        &[s.flux_lm, s.max_cd],
+    )?;
+    let tilt = match &p.tilt {
+        Tilt::None => json!({"kind": "none"}),
+        Tilt::Table {
+            source,
+            geometry,
+            angles_deg,
+            ..
+        } => json!({
+            "kind": source, "lamp_to_luminaire_geometry": geometry, "pairs": angles_deg.len(),
+            "applied_at_lamp_tilt_deg": p.tilt_applied.0, "factor_applied": p.tilt_applied.1,
+        }),
+    };
+    let report = json!({
+        "file": a.file.display().to_string(),
+        "format": f.format, "version": f.version,
+        "photometric_type": p.grid.kind, "symmetry": p.symmetry,
+        "grid": {"horizontal_angles": p.grid.h_deg.len(), "vertical_angles": p.grid.v_deg.len(),
+                  "horizontal_deg": [p.grid.h_deg[0], p.grid.h_deg[p.grid.h_deg.len() - 1]],
+                  "vertical_deg": [p.grid.v_deg[0], p.grid.v_deg[p.grid.v_deg.len() - 1]]},
+        "max_cd": s.max_cd, "max_direction_deg": {"h": s.max_h_deg, "v": s.max_v_deg},
+        "flux_from_grid_lm": s.flux_lm, "flux_down_lm": s.flux_down_lm, "flux_up_lm": s.flux_up_lm,
+        "declared_lamp_flux_lm": p.lamp_flux_lm, "declared_luminaire_flux_lm": p.declared_luminaire_flux_lm,
+        "lor": s.lor, "dlor": s.dlor, "ulor": s.ulor,
+        "declared_lorl_percent": p.declared_lor_percent, "declared_dff_percent": p.declared_dff_percent,
+        "beam_field": s.planes,
+        "luminous_opening_m": p.opening,
+        "tilt": tilt,
+        "lamp_sets": f.lamps.len(),
+        "notes": f.notes,
+    });
+    if let Some(path) = &a.plot {
+        let title = format!(
+            "{} — max {:.4} cd, {:.1} lm",
+            a.file
+                .file_name()
+                .map(|n| n.to_string_lossy().to_string())
+                .unwrap_or_default(),
+            s.max_cd,
+            s.flux_lm
+        );
+        let png = lumifit::plot::photometry::polar_chart_png(&p.grid, &title)?;
+        out.stage(path, &png)?;
+    }
+    out.commit()?;
+    if a.json {
+        return emit(&serde_json::to_string_pretty(&report)?);
+    }
+    let pct = |x: Option<f64>| {
+        x.map(|v| format!("{:.1} %", 100.0 * v))
+            .unwrap_or_else(|| "— (absolute photometry)".into())
+    };
+    let mut t = format!(
+        "{}\n  format      {:?} {}, type {:?}, symmetry {:?}\n  grid        {} horizontal × {} vertical angles (after symmetry), γ {}–{}°\n  max         {:.6} cd at h {}°, v {}°\n  flux        {:.2} lm from the grid (down {:.2}, up {:.2}); declared lamp flux {}\n  LOR         {}  DLOR {}  ULOR {}\n",
+        a.file.display(), f.format, f.version, p.grid.kind, p.symmetry, p.grid.h_deg.len(), p.grid.v_deg.len(),
+        p.grid.v_deg[0], p.grid.v_deg[p.grid.v_deg.len() - 1], s.max_cd, s.max_h_deg, s.max_v_deg,
+        s.flux_lm, s.flux_down_lm, s.flux_up_lm,
+        p.lamp_flux_lm.map(|l| format!("{l} lm")).unwrap_or_else(|| "none (absolute photometry)".into()),
+        pct(s.lor), pct(s.dlor), pct(s.ulor),
+    );
+    if f.format == FileFormat::Eulumdat {
+        t.push_str(&format!(
+            "  declared    LORL {:?} %, DFF {:?} %\n",
+            p.declared_lor_percent, p.declared_dff_percent
+        ));
+    }
+    for b in &s.planes {
+        t.push_str(&format!(
+            "  C{}–C{}   beam {:.1}°, field {:.1}° (max {:.4} cd)\n",
+            b.plane_c_deg,
+            b.plane_c_deg + 180.0,
+            b.beam_deg,
+            b.field_deg,
+            b.max_cd
+        ));
+    }
+    t.push_str(&format!(
+        "  opening     {:?} {:.4} × {:.4} × {:.4} m (length C0 × width C90 × height)\n",
+        p.opening.shape, p.opening.length_m, p.opening.width_m, p.opening.height_m
+    ));
+    t.push_str(&format!("  TILT        {}\n", tilt));
+    for n in &f.notes {
+        t.push_str(&format!("  note        {n}\n"));
+    }
+    emit(t.trim_end())
+}
+
+fn convert(a: &ConvertArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.file);
+    out.declare("--out", &a.out)?;
+    let f = read(&a.file, a.lamp_tilt)?;
+    let ext = a
+        .out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let tool = format!(
+        "lumifit {} from {}",
+        env!("CARGO_PKG_VERSION"),
+        a.file
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default()
+    );
+    let text = match ext.as_str() {
+        "ies" => lumifit::io::ies::write_ies(&f, &tool)?,
+        "ldt" => lumifit::io::eulumdat::write_ldt(&f, &tool)?,
+        _ => anyhow::bail!(
+            "--out: '{}': expected a .ies or .ldt file name",
+            a.out.display()
+        ),
+    };
+    out.stage(&a.out, text.as_bytes())?;
+    out.commit()?;
+    emit(&json!({"in": a.file.display().to_string(), "out": a.out.display().to_string(), "format": ext}).to_string())
+}
+
+fn parse_pair(flag: &str, s: &str) -> Result<(f64, f64)> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    let (Some(a), Some(b), 2) = (v.first(), v.get(1), v.len()) else {
+        anyhow::bail!("{flag}: expected two comma-separated numbers like 1,0.5, got '{s}'");
+    };
+    let a: f64 = a
+        .parse()
+        .with_context(|| format!("{flag}: '{a}' is not a number"))?;
+    let b: f64 = b
+        .parse()
+        .with_context(|| format!("{flag}: '{b}' is not a number"))?;
+    Ok((a, b))
+}
+
+fn method(a: &IlluminanceArgs) -> Result<Method> {
+    let only = |flag: &str, given: bool, m: &str| -> Result<()> {
+        if given {
+            anyhow::bail!("{flag} applies to --method {m} only");
+        }
+        Ok(())
+    };
+    let m = match a.method {
+        MethodArg::Mc => Method::Mc {
+            samples: a.samples.unwrap_or(1024),
+            seed: a.seed.unwrap_or(1),
+        },
+        MethodArg::CubatureAdaptive => Method::CubatureAdaptive {
+            tolerance: a.tolerance.unwrap_or(0.01),
+        },
+        MethodArg::Point => Method::Point,
+        MethodArg::Structured => Method::Structured,
+        MethodArg::Mrp => Method::Mrp,
+        MethodArg::Cubature => Method::Cubature,
+    };
+    if !matches!(m, Method::Mc { .. }) {
+        only("--samples", a.samples.is_some(), "mc")?;
+        only("--seed", a.seed.is_some(), "mc")?;
+    }
+    if !matches!(m, Method::CubatureAdaptive { .. }) {
+        only("--tolerance", a.tolerance.is_some(), "cubature-adaptive")?;
+    }
+    if let Method::Mc { samples, .. } = m {
+        lumifit::limits::check_count("--samples", samples, 100_000_000, "samples per point")?;
+    }
+    Ok(m)
+}
+
+fn shade(a: &IlluminanceArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.light).input(&a.points);
+    out.declare("--out", &a.out)?;
+    let m = method(a)?;
+    let f = read(&a.light, a.lamp_tilt)?;
+    let (w, h) = rect(a.rect.as_deref(), &f, &a.light)?;
+    let light = RectLight::new(
+        parse_triplet("--center", &a.center)?,
+        parse_triplet("--normal", &a.normal)?,
+        parse_triplet("--up", &a.up)?,
+        w,
+        h,
+    )?;
+    let (bytes, source) = lumifit::io::read_input(&a.points)?;
+    let table = lumifit::table::parse_numeric_csv(&bytes, &source)?;
+    let cols: Vec<usize> = ["x", "y", "z", "nx", "ny", "nz"]
+        .iter()
+        .map(|c| {
+            table.column_index(c).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{source}: line 1: no column '{c}'; expected columns x,y,z,nx,ny,nz"
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    let n = table.n_rows();
+    lumifit::limits::check_memory("--points", &format!("{n} rows"), n as u128, 160)?;
+    let mut receivers = Vec::with_capacity(n);
+    for i in 0..n {
+        let v: Vec<f64> = cols.iter().map(|&c| table.columns[c][i]).collect();
+        let nn = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
+        if nn <= 0.0 || !nn.is_finite() {
+            anyhow::bail!(
+                "{source}: line {}: normal (nx,ny,nz) is zero; expected a direction",
+                table.lines[i]
+            );
+        }
+        receivers.push(Receiver {
+            p: [v[0], v[1], v[2]],
+            n: [v[3] / nn, v[4] / nn, v[5] / nn],
+        });
+    }
+    let started = std::time::Instant::now();
+    let shades = illuminance(&light, &f.photometry.grid, &receivers, m)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let e: Vec<f64> = shades.iter().map(|s| s.e_lux).collect();
+    lumifit::error::ensure_finite("E_lux", &a.points.display().to_string(), &e)?;
+    let with_std = matches!(m, Method::Mc { .. });
+    let with_le = matches!(m, Method::Cubature | Method::CubatureAdaptive { .. });
+    let mut csv = String::from("x,y,z,nx,ny,nz,E_lux");
+    if with_std {
+        csv.push_str(",E_std");
+    }
+    if with_le {
+        csv.push_str(",Le_bar");
+    }
+    csv.push('\n');
+    for (r, s) in receivers.iter().zip(&shades) {
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{}",
+            r.p[0], r.p[1], r.p[2], r.n[0], r.n[1], r.n[2], s.e_lux
+        ));
+        if with_std {
+            csv.push_str(&format!(",{}", s.e_std.unwrap_or(0.0)));
+        }
+        if with_le {
+            csv.push_str(&format!(",{}", s.le_bar.unwrap_or(0.0)));
+        }
+        csv.push('\n');
+    }
+    out.stage(&a.out, csv.as_bytes())?;
+    out.commit()?;
+    let evals: usize = shades.iter().map(|s| s.evaluations).sum();
+    emit(
+        &json!({
+            "points": n, "method": m.name(), "rect_m": [w, h],
+            "compute_seconds": seconds, "points_per_second": n as f64 / seconds.max(1e-12),
+            "E_lux_min": e.iter().cloned().fold(f64::INFINITY, f64::min),
+            "E_lux_max": e.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+            "mean_evaluations_per_point": evals as f64 / n.max(1) as f64,
+            "out": a.out.display().to_string(),
+        })
+        .to_string(),
+    )
+}
+
+/// `--rect W,H`, or the file's luminous opening (length along C0, width along C90).
+fn rect(arg: Option<&str>, f: &PhotometricFile, path: &std::path::Path) -> Result<(f64, f64)> {
+    match arg {
+        Some(r) => parse_pair("--rect", r),
+        None => {
+            let o = f.photometry.opening;
+            if !(o.length_m > 0.0 && o.width_m > 0.0) {
+                anyhow::bail!(
+                    "--rect: {} declares no rectangular luminous opening ({:?} {} × {} m); give --rect W,H",
+                    path.display(),
+                    o.shape,
+                    o.length_m,
+                    o.width_m
+                );
+            }
+            Ok((o.length_m, o.width_m))
+        }
+    }
+}
+
+fn preset(a: &PresetArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.file);
+    out.declare("--out", &a.out)?;
+    let f = read(&a.file, a.lamp_tilt)?;
+    let (w, h) = rect(a.rect.as_deref(), &f, &a.file)?;
+    let section = lumifit::preset::photometric::photometric_section(&f, w, h)?;
+    let (bytes, _) = lumifit::io::read_input(&a.file)?;
+    let name = a.name.clone().unwrap_or_else(|| {
+        a.file
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "light".into())
+    });
+    let provenance =
+        lumifit::preset::Provenance::new("light preset", &[(&a.file, bytes.as_slice())]);
+    let p = lumifit::preset::LightPreset::new(name, provenance, section);
+    let text = lumifit::preset::to_json_string(&p)?;
+    out.stage(&a.out, text.as_bytes())?;
+    out.commit()?;
+    emit(&json!({"in": a.file.display().to_string(), "out": a.out.display().to_string(), "rect_m": [w, h]}).to_string())
+}

@@ -1,0 +1,324 @@
+//! `lumifit light …` as a user runs it: inspect (text, JSON, polar plot), convert, illuminance,
+//! and refusals with exit code 2.
+
+mod common;
+
+use common::{assert_rejected, lumifit, p, write};
+
+const LAMBERT_IES: &str = "IES:LM-63-2019\n[TEST] t\nTILT=NONE\n1 -1 1 7 1 1 2 1 1 0\n1 1.00001 0\n0 15 30 45 60 75 90\n0\n1000 965.9258262890683 866.0254037844387 707.1067811865476 500.0000000000001 258.8190451025207 0\n";
+
+#[test]
+fn inspect_prints_flux_beam_and_tilt_and_writes_a_polar_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let o = lumifit(&[
+        "light",
+        "inspect",
+        f.to_str().unwrap(),
+        "--json",
+        "--plot",
+        &p(dir.path(), "plots/polar.png"),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let flux = v["flux_from_grid_lm"].as_f64().unwrap();
+    // piecewise-linear cos on 15° steps integrates to π·I0 within 1 %
+    assert!(
+        (flux / (std::f64::consts::PI * 1000.0) - 1.0).abs() < 0.01,
+        "{flux}"
+    );
+    assert_eq!(v["max_cd"], 1000.0);
+    assert!(v["lor"].is_null(), "absolute photometry has no LOR");
+    // beam angle of cos γ: 2·60° = 120°
+    let beam = v["beam_field"][0]["beam_deg"].as_f64().unwrap();
+    assert!((beam - 120.0).abs() < 0.5, "{beam}");
+    assert_eq!(v["tilt"]["kind"], "none");
+    let png = std::fs::read(dir.path().join("plots/polar.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let text = lumifit(&["light", "inspect", f.to_str().unwrap()]);
+    let t = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        t.contains("beam 120.") && t.contains("lm from the grid"),
+        "{t}"
+    );
+}
+
+#[test]
+fn convert_round_trips_through_eulumdat_and_ies() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let ldt = p(dir.path(), "l.ldt");
+    assert!(
+        lumifit(&["light", "convert", f.to_str().unwrap(), "--out", &ldt])
+            .status
+            .success()
+    );
+    let ies = p(dir.path(), "back.ies");
+    assert!(lumifit(&["light", "convert", &ldt, "--out", &ies])
+        .status
+        .success());
+    let a = lumifit::io::read_photometric(&f, 0.0).unwrap();
+    let b = lumifit::io::read_photometric(std::path::Path::new(&ies), 0.0).unwrap();
+    for (x, y) in a.photometry.grid.cd.iter().zip(&b.photometry.grid.cd) {
+        assert!((x - y).abs() <= 4.0 * f64::EPSILON * x, "{x} {y}");
+    }
+    let o = lumifit(&[
+        "light",
+        "convert",
+        f.to_str().unwrap(),
+        "--out",
+        f.to_str().unwrap(),
+    ]);
+    assert_rejected(&o, &["--out", "is the input"]);
+    let o = lumifit(&[
+        "light",
+        "convert",
+        f.to_str().unwrap(),
+        "--out",
+        &p(dir.path(), "x.txt"),
+    ]);
+    assert_rejected(&o, &[".ies or .ldt"]);
+}
+
+#[test]
+fn illuminance_writes_the_points_with_e_and_the_methods_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let pts = write(
+        dir.path(),
+        "pts.csv",
+        "x,y,z,nx,ny,nz\n0,0,0,0,0,1\n0.5,0.2,0,0,0,2\n3,0,0,0,0,1\n",
+    );
+    for (m, extra) in [
+        ("cubature", "Le_bar"),
+        ("mc", "E_std"),
+        ("point", ""),
+        ("cubature-adaptive", "Le_bar"),
+        ("structured", ""),
+        ("mrp", ""),
+    ] {
+        let out = p(dir.path(), &format!("e_{m}.csv"));
+        let o = lumifit(&[
+            "light",
+            "illuminance",
+            f.to_str().unwrap(),
+            "--rect",
+            "1,1",
+            "--center",
+            "0,0,1",
+            "--normal",
+            "0,0,-1",
+            "--up",
+            "1,0,0",
+            "--points",
+            pts.to_str().unwrap(),
+            "--method",
+            m,
+            "--out",
+            &out,
+        ]);
+        assert!(o.status.success(), "{m}: {}", common::stderr(&o));
+        let csv = std::fs::read_to_string(&out).unwrap();
+        let header = csv.lines().next().unwrap();
+        assert!(
+            header.starts_with("x,y,z,nx,ny,nz,E_lux") && header.contains(extra),
+            "{m}: {header}"
+        );
+        assert_eq!(csv.lines().count(), 4);
+        // the second point's normal (0,0,2) is normalised
+        assert!(
+            csv.lines().nth(2).unwrap().starts_with("0.5,0.2,0,0,0,1,"),
+            "{csv}"
+        );
+    }
+}
+
+#[test]
+fn illuminance_refuses_bad_points_flags_and_files_with_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let pts = write(dir.path(), "pts.csv", "x,y,z,nx,ny,nz\n0,0,0,0,0,1\n");
+    let base = |extra: &[&str]| {
+        let mut a = vec![
+            "light",
+            "illuminance",
+            f.to_str().unwrap(),
+            "--center",
+            "0,0,1",
+            "--normal",
+            "0,0,-1",
+            "--up",
+            "1,0,0",
+            "--points",
+            pts.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        a.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    let run = |extra: &[&str]| {
+        let a = base(extra);
+        lumifit(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let out = p(dir.path(), "e.csv");
+    assert_rejected(
+        &run(&["--rect", "1,1", "--samples", "10", "--out", &out]),
+        &["--samples", "mc"],
+    );
+    assert_rejected(&run(&["--rect", "0,1", "--out", &out]), &["--rect"]);
+    assert_rejected(
+        &run(&[
+            "--rect",
+            "1,1",
+            "--method",
+            "mc",
+            "--samples",
+            "0",
+            "--out",
+            &out,
+        ]),
+        &["--samples"],
+    );
+    // without --rect the file's opening is used: 1 × 1 m here; a point opening is refused
+    assert!(run(&["--out", &out]).status.success());
+    std::fs::remove_file(&out).unwrap();
+    let point = write(
+        dir.path(),
+        "point.ies",
+        LAMBERT_IES.replace("2 1 1 0\n", "2 0 0 0\n"),
+    );
+    let o = lumifit(&[
+        "light",
+        "illuminance",
+        point.to_str().unwrap(),
+        "--center",
+        "0,0,1",
+        "--normal",
+        "0,0,-1",
+        "--up",
+        "1,0,0",
+        "--points",
+        pts.to_str().unwrap(),
+        "--out",
+        &out,
+    ]);
+    assert_rejected(&o, &["--rect", "luminous opening"]);
+    assert_rejected(
+        &run(&["--rect", "1,1", "--out", pts.to_str().unwrap()]),
+        &["is the input"],
+    );
+    let bad_pts = write(dir.path(), "bad.csv", "x,y,z,nx,ny\n0,0,0,0,0\n");
+    let o = lumifit(&[
+        "light",
+        "illuminance",
+        f.to_str().unwrap(),
+        "--rect",
+        "1,1",
+        "--center",
+        "0,0,1",
+        "--normal",
+        "0,0,-1",
+        "--up",
+        "1,0,0",
+        "--points",
+        bad_pts.to_str().unwrap(),
+        "--out",
+        &out,
+    ]);
+    assert_rejected(&o, &["bad.csv", "nz"]);
+    assert!(
+        !std::path::Path::new(&out).exists(),
+        "nothing written on failure"
+    );
+    let broken = write(
+        dir.path(),
+        "broken.ies",
+        LAMBERT_IES.replace("1000 965", "1000 -965"),
+    );
+    let o = lumifit(&["light", "inspect", broken.to_str().unwrap()]);
+    assert_rejected(&o, &["broken.ies", "line 8", "negative"]);
+    let ldt = write(dir.path(), "bad.ldt", "co\n1\n9\n");
+    assert_rejected(
+        &lumifit(&["light", "inspect", ldt.to_str().unwrap()]),
+        &["bad.ldt", "line 3", "Isym"],
+    );
+}
+
+#[test]
+fn every_data_file_inspects_with_exit_0() {
+    let d = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/photometric");
+    if !d.is_dir() {
+        assert!(
+            std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+            "LUMIFIT_REQUIRE_DATA=1 but {} is absent",
+            d.display()
+        );
+        eprintln!("skipping: {} is absent", d.display());
+        return;
+    }
+    let mut n = 0;
+    for sub in std::fs::read_dir(&d).unwrap() {
+        let sub = sub.unwrap().path();
+        if !sub.is_dir() {
+            continue;
+        }
+        for f in std::fs::read_dir(&sub).unwrap() {
+            let f = f.unwrap().path();
+            let ext = f
+                .extension()
+                .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                .unwrap_or_default();
+            if ext == "ies" || ext == "ldt" {
+                let o = lumifit(&["light", "inspect", f.to_str().unwrap(), "--json"]);
+                assert!(
+                    o.status.success(),
+                    "{}: {}",
+                    f.display(),
+                    common::stderr(&o)
+                );
+                n += 1;
+            }
+        }
+    }
+    assert_eq!(n, 15);
+}
+
+#[test]
+fn light_preset_holds_the_full_grid_and_the_source_hash_and_validates() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let out = p(dir.path(), "light.json");
+    let o = lumifit(&[
+        "light",
+        "preset",
+        f.to_str().unwrap(),
+        "--rect",
+        "0.6,0.3",
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(lumifit(&["preset", "validate", &out]).status.success());
+    let preset = lumifit::preset::read_light(std::path::Path::new(&out)).unwrap();
+    let grid = lumifit::preset::photometric::grid_from_section(&preset.photometric, &out).unwrap();
+    let file = lumifit::io::read_photometric(&f, 0.0).unwrap();
+    assert_eq!(
+        grid, file.photometry.grid,
+        "the preset's grid is the file's, bit for bit"
+    );
+    assert_eq!(
+        preset.photometric["emitter_rect_m"],
+        serde_json::json!([0.6, 0.3])
+    );
+    let sha = lumifit::preset::sha256_hex(LAMBERT_IES.as_bytes());
+    assert_eq!(preset.provenance.inputs[0].sha256, sha);
+    let o = lumifit(&[
+        "light",
+        "preset",
+        f.to_str().unwrap(),
+        "--rect",
+        "-1,1",
+        "--out",
+        &p(dir.path(), "x.json"),
+    ]);
+    assert_rejected(&o, &["--rect"]);
+}
