@@ -7,7 +7,7 @@
 //! |---|---|
 //! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
-//! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`] |
+//! | L2 | [`fluor`], [`phosphor`], [`lvf`], [`recovery`], [`dispersion`] |
 //! | L3 | [`io`], [`preset`], [`plot`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
@@ -15,6 +15,7 @@
 pub mod calib;
 pub mod capture;
 pub mod colorimetry;
+pub mod dispersion;
 pub mod error;
 pub mod fit;
 pub mod fluor;

@@ -15,6 +15,7 @@ pub mod image;
 pub mod maps;
 pub mod output;
 pub mod raw;
+pub mod refractive_index;
 pub mod series;
 pub mod spectrum_csv;
 

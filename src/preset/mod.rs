@@ -27,6 +27,8 @@
 //! atomically ([`crate::io::atomic_write`]); an invalid preset is never written and an existing
 //! file is left untouched.
 
+pub mod dispersion;
+pub mod export;
 mod file;
 mod provenance;
 mod types;
