@@ -17,7 +17,14 @@
 //!
 //! Both are in XYZ relative to the working white (Y = 1 for the whole undispersed beam); Lab uses
 //! that white; ΔE00 is taken on every pixel where either render has Y > [`LIT_Y`], and its mean and
-//! maximum are reported.
+//! maximum are reported against two references:
+//!
+//! - **display** ([`PrismCase::difference`]): the spectral render as an RGB display of the working
+//!   space shows it — per pixel linear RGB with negative channels clipped to 0. This is what the
+//!   samples can at best reproduce, so it measures what sampling costs.
+//! - **colorimetric** ([`PrismCase::difference_xyz`]): the spectral render's XYZ, out-of-gamut
+//!   colours included. Against it even infinitely many samples keep an error: the spectral
+//!   colours of the dispersed fringes lie outside every RGB gamut.
 
 use super::blanchette2012::SpectralSlices;
 use super::RefractiveIndex;
@@ -289,6 +296,113 @@ pub fn compare(a: &Strip, b: &Strip, white_xy: [f64; 2]) -> Result<StripDifferen
         max,
         lit_pixels: lit,
     })
+}
+
+/// One rendered case: a label, its samples, its strip and its difference to the reference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrismCase {
+    /// What the samples are (`N = 7`, `Blanchette Table 2`, `preset`).
+    pub label: String,
+    /// The samples `(λ nm, linear RGB)`.
+    pub samples: Vec<(f64, [f64; 3])>,
+    /// The sampled render.
+    pub strip: Strip,
+    /// ΔE00 against the spectral render as the working space displays it (negatives clipped).
+    pub difference: StripDifference,
+    /// ΔE00 against the spectral render's XYZ (out-of-gamut colours included).
+    pub difference_xyz: StripDifference,
+}
+
+/// The spectral reference and every sampled case on one layout.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrismEvaluation {
+    /// The layout.
+    pub layout: Layout,
+    /// The spectral reference (XYZ, out-of-gamut colours included).
+    pub spectral: Strip,
+    /// The spectral reference as the working space displays it (negative RGB clipped).
+    pub spectral_display: Strip,
+    /// The sampled cases, in the order given.
+    pub cases: Vec<PrismCase>,
+}
+
+/// Renders the spectral reference and each `(label, samples)` case, and compares them.
+pub fn evaluate(
+    n: &dyn RefractiveIndex,
+    slices: &SpectralSlices,
+    setup: &PrismSetup,
+    cases: Vec<(String, Vec<(f64, [f64; 3])>)>,
+) -> Result<PrismEvaluation> {
+    let lay = layout(n, slices, setup)?;
+    let spectral = render_spectral(n, slices, setup, &lay);
+    let spectral_display = displayed(&spectral, &slices.space);
+    let white = slices.space.whitepoint_xy;
+    let mut out = Vec::with_capacity(cases.len());
+    for (label, samples) in cases {
+        let strip = render_samples(n, &samples, &slices.space, setup, &lay)?;
+        let difference = compare(&spectral_display, &strip, white)?;
+        let difference_xyz = compare(&spectral, &strip, white)?;
+        out.push(PrismCase {
+            label,
+            samples,
+            strip,
+            difference,
+            difference_xyz,
+        });
+    }
+    Ok(PrismEvaluation {
+        layout: lay,
+        spectral,
+        spectral_display,
+        cases: out,
+    })
+}
+
+/// The strip as an RGB display of `space` shows it: per pixel linear RGB, negatives clipped to 0,
+/// back to XYZ.
+pub fn displayed(strip: &Strip, space: &RgbSpace) -> Strip {
+    Strip {
+        x_mm: strip.x_mm.clone(),
+        xyz: strip
+            .xyz
+            .iter()
+            .map(|v| {
+                let rgb = mat3_mul_vec(&space.matrix_xyz_to_rgb, *v).map(|c| c.max(0.0));
+                mat3_mul_vec(&space.matrix_rgb_to_xyz, rgb)
+            })
+            .collect(),
+    }
+}
+
+/// The smallest N ≤ `max_n` whose computed samples ([`super::blanchette2012`]) give a maximum
+/// ΔE00 ≤ `target` along the strip against the display reference, with that N's difference;
+/// `None` when no N up to `max_n` reaches it.
+pub fn smallest_n_for(
+    n: &dyn RefractiveIndex,
+    slices: &SpectralSlices,
+    setup: &PrismSetup,
+    target: f64,
+    max_n: usize,
+) -> Result<Option<(usize, StripDifference)>> {
+    if !(target.is_finite() && target > 0.0) {
+        return Err(Error::invalid(
+            "--target-de00",
+            format!("{target}; expected a positive ΔE00 such as 1"),
+        ));
+    }
+    let lay = layout(n, slices, setup)?;
+    let spectral = displayed(&render_spectral(n, slices, setup, &lay), &slices.space);
+    for k in 1..=max_n.min(slices.lambda_nm.len()) {
+        let set = super::blanchette2012::wavelength_samples(slices, k)?;
+        let samples: Vec<(f64, [f64; 3])> =
+            set.samples.iter().map(|s| (s.lambda_nm, s.rgb)).collect();
+        let strip = render_samples(n, &samples, &slices.space, setup, &lay)?;
+        let d = compare(&spectral, &strip, slices.space.whitepoint_xy)?;
+        if d.max <= target {
+            return Ok(Some((k, d)));
+        }
+    }
+    Ok(None)
 }
 
 #[cfg(test)]

@@ -189,7 +189,7 @@ fn check_covers(name: &str, covered: [f64; 2], valid: [f64; 2], field: &str) -> 
         return Err(Error::invalid(
             format!("{name}: {field}"),
             format!(
-                "the data cover {:.1}–{:.1} nm, which leaves {:.1}–{:.1} nm of the requested range; expected data spanning at least the F to C lines (485–657 nm) so that n_d and V_d are defined (no extrapolation)",
+                "the data cover {:.1}–{:.1} nm, so the fitted range would be {:.1}–{:.1} nm; expected a range with data spanning at least the F to C lines (485–657 nm) so that n_d and V_d are defined (no extrapolation)",
                 valid[0], valid[1], covered[0], covered[1]
             ),
         ));

@@ -31,6 +31,7 @@ use crate::error::{Error, Result};
 mod colorchecker;
 mod fluor;
 mod lvf;
+pub mod dispersion;
 pub mod lvf_bands;
 mod phosphor;
 mod phosphor_excitation;

@@ -114,3 +114,143 @@ pub(super) fn check(section: &DispersionSection) -> Vec<(String, String)> {
     }
     out
 }
+
+/// What `lumifit dispersion fit` asks for.
+#[derive(Debug, Clone)]
+pub struct FitConfig<'a> {
+    /// Candidate models (all of [`crate::dispersion::ModelKind::ALL`] for `--model auto`).
+    pub kinds: Vec<crate::dispersion::ModelKind>,
+    /// Requested range in nm.
+    pub range_nm: [f64; 2],
+    /// Tolerance on max |Δn|.
+    pub tolerance: f64,
+    /// Number of wavelength samples.
+    pub n_samples: usize,
+    /// Air ↔ vacuum conversion of the source.
+    pub conversion: crate::dispersion::AirVacuum,
+    /// Observer of the sample colours.
+    pub observer: &'a crate::colorimetry::Observer,
+    /// Illuminant whose white the samples sum to.
+    pub illuminant: &'a crate::colorimetry::Illuminant,
+    /// Working space of the weights.
+    pub space: &'a crate::colorimetry::rgb::RgbSpace,
+    /// Name of the source in errors and in the section (`source`).
+    pub source_name: &'a str,
+}
+
+/// The fitted section and the full fit report.
+#[derive(Debug, Clone)]
+pub struct FittedDispersion {
+    /// The preset section.
+    pub section: DispersionSection,
+    /// Every candidate and the choice.
+    pub report: crate::dispersion::FitReport,
+    /// Derived numbers of the chosen model.
+    pub derived: crate::dispersion::DerivedNumbers,
+    /// Standard deviation of V_d from the fit (measured data only).
+    pub abbe_number_std: Option<f64>,
+}
+
+/// Fits `source` as `cfg` says and builds the preset section: observations over the range,
+/// every candidate model, the automatic choice, derived numbers of the chosen model, and the
+/// wavelength samples (weights from the observer, illuminant and working space; n from the model).
+pub fn fit_section(
+    source: &crate::dispersion::Source,
+    cfg: &FitConfig<'_>,
+) -> Result<FittedDispersion> {
+    use crate::dispersion::{blanchette2012, derived, fit, source as src, RefractiveIndex};
+    let (obs, covered) = src::observations(source, cfg.range_nm, cfg.conversion, cfg.source_name)?;
+    let report = fit::fit_auto(&obs, &cfg.kinds, cfg.tolerance, covered)?;
+    let best = report.best();
+    let d = derived::derived_numbers(&best.model, covered)?;
+    let vd_std = best
+        .covariance
+        .as_ref()
+        .and_then(|c| derived::abbe_number_std(&best.model, c));
+    let range_int = [covered[0].ceil(), covered[1].floor()];
+    let slices = blanchette2012::slices_for(cfg.observer, cfg.illuminant, cfg.space, range_int)?;
+    let set = blanchette2012::wavelength_samples(&slices, cfg.n_samples)?;
+    let samples: Vec<DispersionSample> = set
+        .samples
+        .iter()
+        .map(|s| DispersionSample {
+            lambda_nm: s.lambda_nm,
+            n: best.model.n_at(s.lambda_nm),
+            rgb: s.rgb,
+        })
+        .collect();
+    let mut values: Vec<f64> = samples.iter().map(|s| s.n).collect();
+    values.extend_from_slice(best.model.coefficients());
+    values.extend_from_slice(&[
+        d.n_d,
+        d.abbe_number_d,
+        best.rms_residual,
+        best.max_abs_residual,
+    ]);
+    crate::error::ensure_finite("dispersion fit", cfg.source_name, &values)?;
+    let mut extra = OpenSection::new();
+    let candidates: Vec<serde_json::Value> = report
+        .candidates
+        .iter()
+        .map(|c| {
+            serde_json::json!({
+                "model": c.kind.key(),
+                "kind": c.model.family(),
+                "coefficients": if c.valid { serde_json::json!(c.model.coefficients()) } else { serde_json::Value::Null },
+                "rms_residual": if c.valid { serde_json::json!(c.rms_residual) } else { serde_json::Value::Null },
+                "max_abs_residual": if c.valid { serde_json::json!(c.max_abs_residual) } else { serde_json::Value::Null },
+                "termination": c.termination,
+                "valid": c.valid,
+                "note": c.note,
+            })
+        })
+        .collect();
+    let json = |v: serde_json::Result<serde_json::Value>| v.unwrap_or(serde_json::Value::Null);
+    extra.insert("derived".into(), json(serde_json::to_value(&d)));
+    if let Some(s) = vd_std {
+        extra.insert("abbe_number_std".into(), serde_json::json!(s));
+    }
+    extra.insert("chosen_model".into(), serde_json::json!(best.kind.key()));
+    extra.insert("tolerance".into(), serde_json::json!(report.tolerance));
+    extra.insert(
+        "tolerance_met".into(),
+        serde_json::json!(report.tolerance_met),
+    );
+    extra.insert("candidates".into(), serde_json::Value::Array(candidates));
+    extra.insert(
+        "n_observations".into(),
+        serde_json::json!(report.n_observations),
+    );
+    extra.insert("source".into(), serde_json::json!(cfg.source_name));
+    extra.insert("air_vacuum".into(), serde_json::json!(cfg.conversion.key()));
+    extra.insert(
+        "illuminant".into(),
+        serde_json::json!(cfg.illuminant.name()),
+    );
+    extra.insert("observer".into(), serde_json::json!(cfg.observer.name()));
+    extra.insert(
+        "samples_rule".into(),
+        serde_json::json!("blanchette2012: equal intervals, interval colours, neutral added to out-of-gamut bands, common scale"),
+    );
+    let section = DispersionSection {
+        model: DispersionModel {
+            kind: best.model.family().to_string(),
+            coefficients: best.model.coefficients().to_vec(),
+            wavelength_unit: "um".into(),
+        },
+        range_nm: covered,
+        n_d: d.n_d,
+        abbe_number: d.abbe_number_d,
+        rms_residual: best.rms_residual,
+        max_abs_residual: best.max_abs_residual,
+        samples,
+        working_space: cfg.space.key.clone(),
+        extra,
+    };
+    Ok(FittedDispersion {
+        section,
+        report,
+        derived: d,
+        abbe_number_std: vd_std,
+    })
+}

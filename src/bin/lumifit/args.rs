@@ -36,6 +36,9 @@ pub enum Command {
     /// Spectra from captures: recover a light or reflectance spectrum from a photo through the LVF.
     #[command(subcommand)]
     Spectrum(crate::commands::spectrum::SpectrumCommand),
+    /// Dispersion: fit n(λ), wavelength samples for RGB renderers, the prism check.
+    #[command(subcommand)]
+    Dispersion(crate::commands::dispersion::DispersionCommand),
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),
@@ -137,6 +140,8 @@ pub enum PresetCommand {
         /// The preset file.
         file: PathBuf,
     },
+    /// Export a preset to a renderer format (glTF 2.0 material, OpenPBR parameters).
+    Export(crate::commands::preset_export::ExportArgs),
 }
 
 #[derive(Debug, Args)]
