@@ -17,14 +17,14 @@
 //!
 //! Both are in XYZ relative to the working white (Y = 1 for the whole undispersed beam); Lab uses
 //! that white; ΔE00 is taken on every pixel where either render has Y > [`LIT_Y`], and its mean and
-//! maximum are reported against two references:
+//! maximum are reported against the spectral reference's XYZ for two weight sets:
 //!
-//! - **display** ([`PrismCase::difference`]): the spectral render as an RGB display of the working
-//!   space shows it — per pixel linear RGB with negative channels clipped to 0. This is what the
-//!   samples can at best reproduce, so it measures what sampling costs.
-//! - **colorimetric** ([`PrismCase::difference_xyz`]): the spectral render's XYZ, out-of-gamut
-//!   colours included. Against it even infinitely many samples keep an error: the spectral
-//!   colours of the dispersed fringes lie outside every RGB gamut.
+//! - **as exported** ([`PrismCase::difference`]): the non-negative, gamut-mapped weights a preset
+//!   carries. This includes the gamut cost: spectral fringe colours lie outside every RGB gamut,
+//!   so even one sample per nm keeps an error (the floor is reported in `docs/dispersion.md`).
+//! - **sampling only** ([`PrismCase::sampling_only`]): the same wavelengths with the bands' true
+//!   colours before gamut mapping (negative components allowed, as a float RGB buffer holds
+//!   them). This error vanishes as N grows; `--target-de00` bounds it.
 
 use super::blanchette2012::SpectralSlices;
 use super::RefractiveIndex;
@@ -307,10 +307,10 @@ pub struct PrismCase {
     pub samples: Vec<(f64, [f64; 3])>,
     /// The sampled render.
     pub strip: Strip,
-    /// ΔE00 against the spectral render as the working space displays it (negatives clipped).
+    /// ΔE00 of the weights as given against the spectral render.
     pub difference: StripDifference,
-    /// ΔE00 against the spectral render's XYZ (out-of-gamut colours included).
-    pub difference_xyz: StripDifference,
+    /// ΔE00 of the bands' true (unmapped) colours at the same wavelengths, when known.
+    pub sampling_only: Option<StripDifference>,
 }
 
 /// The spectral reference and every sampled case on one layout.
@@ -320,63 +320,55 @@ pub struct PrismEvaluation {
     pub layout: Layout,
     /// The spectral reference (XYZ, out-of-gamut colours included).
     pub spectral: Strip,
-    /// The spectral reference as the working space displays it (negative RGB clipped).
-    pub spectral_display: Strip,
     /// The sampled cases, in the order given.
     pub cases: Vec<PrismCase>,
 }
 
-/// Renders the spectral reference and each `(label, samples)` case, and compares them.
+/// A case to render: a label, the weights `(λ nm, linear RGB)`, and optionally the bands' true
+/// colours at the same wavelengths.
+pub type CaseInput = (String, Vec<(f64, [f64; 3])>, Option<Vec<[f64; 3]>>);
+
+/// Renders the spectral reference and each case, and compares them.
 pub fn evaluate(
     n: &dyn RefractiveIndex,
     slices: &SpectralSlices,
     setup: &PrismSetup,
-    cases: Vec<(String, Vec<(f64, [f64; 3])>)>,
+    cases: Vec<CaseInput>,
 ) -> Result<PrismEvaluation> {
     let lay = layout(n, slices, setup)?;
     let spectral = render_spectral(n, slices, setup, &lay);
-    let spectral_display = displayed(&spectral, &slices.space);
     let white = slices.space.whitepoint_xy;
     let mut out = Vec::with_capacity(cases.len());
-    for (label, samples) in cases {
+    for (label, samples, targets) in cases {
         let strip = render_samples(n, &samples, &slices.space, setup, &lay)?;
-        let difference = compare(&spectral_display, &strip, white)?;
-        let difference_xyz = compare(&spectral, &strip, white)?;
+        let difference = compare(&spectral, &strip, white)?;
+        let sampling_only = match targets {
+            Some(t) => {
+                let ideal: Vec<(f64, [f64; 3])> =
+                    samples.iter().zip(t).map(|(s, c)| (s.0, c)).collect();
+                let strip = render_samples(n, &ideal, &slices.space, setup, &lay)?;
+                Some(compare(&spectral, &strip, white)?)
+            }
+            None => None,
+        };
         out.push(PrismCase {
             label,
             samples,
             strip,
             difference,
-            difference_xyz,
+            sampling_only,
         });
     }
     Ok(PrismEvaluation {
         layout: lay,
         spectral,
-        spectral_display,
         cases: out,
     })
 }
 
-/// The strip as an RGB display of `space` shows it: per pixel linear RGB, negatives clipped to 0,
-/// back to XYZ.
-pub fn displayed(strip: &Strip, space: &RgbSpace) -> Strip {
-    Strip {
-        x_mm: strip.x_mm.clone(),
-        xyz: strip
-            .xyz
-            .iter()
-            .map(|v| {
-                let rgb = mat3_mul_vec(&space.matrix_xyz_to_rgb, *v).map(|c| c.max(0.0));
-                mat3_mul_vec(&space.matrix_rgb_to_xyz, rgb)
-            })
-            .collect(),
-    }
-}
-
 /// The smallest N ≤ `max_n` whose computed samples ([`super::blanchette2012`]) give a maximum
-/// ΔE00 ≤ `target` along the strip against the display reference, with that N's difference;
-/// `None` when no N up to `max_n` reaches it.
+/// ΔE00 ≤ `target` along the strip from sampling alone (the bands' true colours, see the module
+/// docs), with that N's difference; `None` when no N up to `max_n` reaches it.
 pub fn smallest_n_for(
     n: &dyn RefractiveIndex,
     slices: &SpectralSlices,
@@ -391,11 +383,14 @@ pub fn smallest_n_for(
         ));
     }
     let lay = layout(n, slices, setup)?;
-    let spectral = displayed(&render_spectral(n, slices, setup, &lay), &slices.space);
+    let spectral = render_spectral(n, slices, setup, &lay);
     for k in 1..=max_n.min(slices.lambda_nm.len()) {
         let set = super::blanchette2012::wavelength_samples(slices, k)?;
-        let samples: Vec<(f64, [f64; 3])> =
-            set.samples.iter().map(|s| (s.lambda_nm, s.rgb)).collect();
+        let samples: Vec<(f64, [f64; 3])> = set
+            .samples
+            .iter()
+            .map(|s| (s.lambda_nm, s.target_rgb))
+            .collect();
         let strip = render_samples(n, &samples, &slices.space, setup, &lay)?;
         let d = compare(&spectral, &strip, slices.space.whitepoint_xy)?;
         if d.max <= target {

@@ -47,7 +47,12 @@ pub fn prism_chart_png(title: &str, eval: &PrismEvaluation, case: usize) -> Resu
     let sampled: Vec<[u8; 3]> = c.strip.xyz.iter().map(to_px).collect::<Result<_>>()?;
     let x = &eval.spectral.x_mm;
     let (x0, x1) = (x[0], x[x.len() - 1]);
-    let de_max = c.difference.max.max(1e-3) * 1.1;
+    let de_max = c
+        .difference
+        .max
+        .max(c.sampling_only.as_ref().map_or(0.0, |s| s.max))
+        .max(1e-3)
+        * 1.1;
     render_png_bytes(SIZE_PX, |root| {
         let (w, _) = root.dim_in_pixel();
         let style = TextSpec::new(26.0, INK, HPos::Center, VPos::Center);
@@ -75,10 +80,16 @@ pub fn prism_chart_png(title: &str, eval: &PrismEvaluation, case: usize) -> Resu
         }
         let top = TITLE_H + 10 + 2 * (STRIP_H + 16);
         let (_, lower) = root.split_vertically(top);
-        let caption = format!(
-            "ΔE00 along the strip: mean {:.2}, max {:.2} over {} lit pixels",
-            c.difference.mean, c.difference.max, c.difference.lit_pixels
-        );
+        let caption = match &c.sampling_only {
+            Some(so) => format!(
+                "ΔE00 (blue: weights as exported, mean {:.2} max {:.2}; orange: sampling only, mean {:.2} max {:.2})",
+                c.difference.mean, c.difference.max, so.mean, so.max
+            ),
+            None => format!(
+                "ΔE00 along the strip: mean {:.2}, max {:.2} over {} lit pixels",
+                c.difference.mean, c.difference.max, c.difference.lit_pixels
+            ),
+        };
         let mut chart = spectral_axes(
             &lower,
             &AxesSpec {
@@ -96,6 +107,10 @@ pub fn prism_chart_png(title: &str, eval: &PrismEvaluation, case: usize) -> Resu
             .zip(c.difference.delta_e.iter().copied())
             .collect();
         draw_curve(&mut chart, &pts, COLOURS[0], 2)?;
+        if let Some(so) = &c.sampling_only {
+            let pts: Vec<(f64, f64)> = x.iter().copied().zip(so.delta_e.iter().copied()).collect();
+            draw_curve(&mut chart, &pts, COLOURS[1], 2)?;
+        }
         Ok(())
     })
 }

@@ -9,7 +9,7 @@ use lumifit::colorimetry::rgb::RgbSpace;
 use lumifit::colorimetry::{Observer, StandardObserver};
 use lumifit::dispersion::blanchette2012::{slices_for, table2_samples, wavelength_samples};
 use lumifit::dispersion::catalogue::glass;
-use lumifit::dispersion::prism::{evaluate, smallest_n_for, PrismSetup};
+use lumifit::dispersion::prism::{evaluate, smallest_n_for, CaseInput, PrismSetup};
 use lumifit::dispersion::{source, AirVacuum, ModelKind, Source};
 use lumifit::io::refractive_index::{parse_n_csv, parse_rii_yaml};
 use lumifit::io::{read_input, Outputs};
@@ -283,35 +283,37 @@ fn prism(a: &PrismArgs) -> Result<()> {
         beam_width_mm: a.beam_width_mm,
         pixel_mm: a.pixel_mm,
     };
-    let computed = |n: usize| -> Result<Vec<(f64, [f64; 3])>> {
-        Ok(wavelength_samples(&slices, n)?
-            .samples
-            .iter()
-            .map(|s| (s.lambda_nm, s.rgb))
-            .collect())
+    let computed = |label: String, n: usize| -> Result<CaseInput> {
+        let set = wavelength_samples(&slices, n)?;
+        Ok((
+            label,
+            set.samples.iter().map(|s| (s.lambda_nm, s.rgb)).collect(),
+            Some(set.samples.iter().map(|s| s.target_rgb).collect()),
+        ))
     };
     let mut target = None;
-    let main: (String, Vec<(f64, [f64; 3])>) = if let Some(t) = a.target_de00 {
-        let found = smallest_n_for(&model, &slices, &setup, t, 400)?;
+    let main: CaseInput = if let Some(t) = a.target_de00 {
+        let found = smallest_n_for(&model, &slices, &setup, t, 401)?;
         let (n, _) = found.with_context(|| {
-            format!("--target-de00 {t}: no N up to 400 samples reaches a maximum ΔE00 of {t}")
+            format!("--target-de00 {t}: no N up to 401 samples reaches a maximum sampling ΔE00 of {t}")
         })?;
         target = Some(n);
-        (format!("N = {n} (smallest for ΔE00 ≤ {t})"), computed(n)?)
+        computed(format!("N = {n} (smallest for sampling ΔE00 ≤ {t})"), n)?
     } else if let Some(n) = a.samples {
-        (format!("N = {n}"), computed(n)?)
+        computed(format!("N = {n}"), n)?
     } else {
         (
             format!("preset samples (N = {})", d.samples.len()),
             d.samples.iter().map(|s| (s.lambda_nm, s.rgb)).collect(),
+            None,
         )
     };
     let mut cases = vec![main];
     if a.table.is_some() {
         for n in [3, 5, 7, 11, 21] {
-            cases.push((format!("N = {n}"), computed(n)?));
+            cases.push(computed(format!("N = {n}"), n)?);
         }
-        cases.push(("Blanchette 2012 Table 2".into(), table2_samples()));
+        cases.push(("Blanchette 2012 Table 2".into(), table2_samples(), None));
     }
     let eval = evaluate(&model, &slices, &setup, cases)?;
     let title = format!(
@@ -329,17 +331,21 @@ fn prism(a: &PrismArgs) -> Result<()> {
     )?;
     if let Some(t) = &a.table {
         let mut csv = String::from(
-            "case,n_samples,mean_de00,max_de00,mean_de00_colorimetric,max_de00_colorimetric,lit_pixels\n",
+            "case,n_samples,mean_de00,max_de00,mean_de00_sampling_only,max_de00_sampling_only,lit_pixels\n",
         );
         for c in &eval.cases {
+            let (m, x) = c
+                .sampling_only
+                .as_ref()
+                .map_or((String::new(), String::new()), |s| {
+                    (format!("{:.4}", s.mean), format!("{:.4}", s.max))
+                });
             csv.push_str(&format!(
-                "\"{}\",{},{:.4},{:.4},{:.4},{:.4},{}\n",
+                "\"{}\",{},{:.4},{:.4},{m},{x},{}\n",
                 c.label,
                 c.samples.len(),
                 c.difference.mean,
                 c.difference.max,
-                c.difference_xyz.mean,
-                c.difference_xyz.max,
                 c.difference.lit_pixels
             ));
         }
@@ -349,7 +355,8 @@ fn prism(a: &PrismArgs) -> Result<()> {
         .cases
         .iter()
         .map(|c| json!({"case": c.label, "n_samples": c.samples.len(), "mean_de00": c.difference.mean, "max_de00": c.difference.max,
-                        "mean_de00_colorimetric": c.difference_xyz.mean, "max_de00_colorimetric": c.difference_xyz.max}))
+                        "mean_de00_sampling_only": c.sampling_only.as_ref().map(|s| s.mean),
+                        "max_de00_sampling_only": c.sampling_only.as_ref().map(|s| s.max)}))
         .collect();
     let summary = json!({
         "preset": file,
