@@ -26,6 +26,10 @@
 //! The published matrices are rounded, so the white of step 2 is (1, 1, 1) only to ~1e-5; each
 //! channel is rescaled by its exact total before step 4 so the sum is exact.
 
+// Index loops mirror the maths; `!(a > b)` comparisons deliberately reject NaN along with
+// out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::colorimetry::cat::{chromatic_adaptation_matrix, Cat};
 use crate::colorimetry::rgb::RgbSpace;
 use crate::colorimetry::xyy::xy_to_xyz;

@@ -26,6 +26,10 @@
 //!   colours before gamut mapping (negative components allowed, as a float RGB buffer holds
 //!   them). This error vanishes as N grows; `--target-de00` bounds it.
 
+// Index loops mirror the maths; `!(a > b)` comparisons deliberately reject NaN along with
+// out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use super::blanchette2012::SpectralSlices;
 use super::RefractiveIndex;
 use crate::colorimetry::delta_e::delta_e_cie2000;

@@ -14,6 +14,10 @@
 //!
 //! Errors name the file, the line where it can be found, the field and what was expected.
 
+// Index loops mirror the maths; `!(a > b)` comparisons deliberately reject NaN along with
+// out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use yaml_rust2::{Yaml, YamlLoader};
 
 use crate::dispersion::fit::Observations;

@@ -29,9 +29,9 @@ use plotters::style::{register_font, FontStyle};
 use crate::error::{Error, Result};
 
 mod colorchecker;
+pub mod dispersion;
 mod fluor;
 mod lvf;
-pub mod dispersion;
 pub mod lvf_bands;
 mod phosphor;
 mod phosphor_excitation;

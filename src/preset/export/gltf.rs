@@ -159,17 +159,6 @@ pub fn material_gltf(preset: &MaterialPreset, file: &str, opts: ExportOptions) -
     }))
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn base64_matches_rfc4648_examples() {
-        assert_eq!(super::base64(b"f"), "Zg==");
-        assert_eq!(super::base64(b"fo"), "Zm8=");
-        assert_eq!(super::base64(b"foo"), "Zm9v");
-        assert_eq!(super::base64(b"foobar"), "Zm9vYmFy");
-    }
-}
-
 /// OpenPBR parameters of `preset`'s dispersion section, as JSON.
 pub fn openpbr_parameters(preset: &MaterialPreset, file: &str) -> Result<Value> {
     let d = section(preset, file)?;
@@ -183,4 +172,15 @@ pub fn openpbr_parameters(preset: &MaterialPreset, file: &str) -> Result<Value> 
         "transmission_dispersion_scale": 1.0,
         "note": "OpenPBR keeps only n_d and V_d: the two-term Cauchy curve through n_d; see the preset's dispersion.derived.gltf_cauchy for its error"
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn base64_matches_rfc4648_examples() {
+        assert_eq!(super::base64(b"f"), "Zg==");
+        assert_eq!(super::base64(b"fo"), "Zm8=");
+        assert_eq!(super::base64(b"foo"), "Zm9v");
+        assert_eq!(super::base64(b"foobar"), "Zm9vYmFy");
+    }
 }

@@ -295,7 +295,9 @@ fn prism(a: &PrismArgs) -> Result<()> {
     let main: CaseInput = if let Some(t) = a.target_de00 {
         let found = smallest_n_for(&model, &slices, &setup, t, 401)?;
         let (n, _) = found.with_context(|| {
-            format!("--target-de00 {t}: no N up to 401 samples reaches a maximum sampling ΔE00 of {t}")
+            format!(
+                "--target-de00 {t}: no N up to 401 samples reaches a maximum sampling ΔE00 of {t}"
+            )
         })?;
         target = Some(n);
         computed(format!("N = {n} (smallest for sampling ΔE00 ≤ {t})"), n)?
