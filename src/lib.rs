@@ -7,7 +7,7 @@
 //! |---|---|
 //! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
 //! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
-//! | L2 | [`afterimage`], [`fluor`], [`phosphor`], [`lvf`], [`recovery`], [`photometry`] |
+//! | L2 | [`afterimage`], [`dispersion`], [`fluor`], [`phosphor`], [`lvf`], [`recovery`], [`photometry`] |
 //! | L3 | [`io`], [`preset`], [`plot`], [`pipeline`] |
 //!
 //! The binary `lumifit` (L4) is a thin clap front end over these.
@@ -16,6 +16,7 @@ pub mod afterimage;
 pub mod calib;
 pub mod capture;
 pub mod colorimetry;
+pub mod dispersion;
 pub mod error;
 pub mod fit;
 pub mod fluor;

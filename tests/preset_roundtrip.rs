@@ -111,7 +111,16 @@ fn full_material() -> MaterialPreset {
         extra: object(json!({"note": "kept"})),
     });
     preset.fluorescence = Some(fluorescence());
-    preset.dispersion = Some(object(json!({})));
+    preset.dispersion = Some(
+        serde_json::from_value(json!({
+            "model": {"kind": "cauchy", "coefficients": [1.5046, 0.0042], "wavelength_unit": "um"},
+            "range_nm": [380.0, 780.0], "n_d": 1.5168, "abbe_number": 64.17,
+            "rms_residual": 1e-4, "max_abs_residual": 2e-4,
+            "samples": [{"lambda_nm": 500.0, "n": 1.52, "rgb": [1.0, 1.0, 1.0]}],
+            "working_space": "srgb", "note": "kept"
+        }))
+        .unwrap(),
+    );
     preset.afterimage = Some(object(json!({"t_s": 1.5})));
     preset.photometric = Some(object(json!({"luminous_flux_lm": 12.25})));
     preset

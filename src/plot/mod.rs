@@ -30,6 +30,7 @@ use crate::error::{Error, Result};
 
 pub mod afterimage;
 mod colorchecker;
+pub mod dispersion;
 mod fluor;
 mod lvf;
 pub mod lvf_bands;

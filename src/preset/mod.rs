@@ -28,6 +28,8 @@
 //! file is left untouched.
 
 pub mod afterimage;
+pub mod dispersion;
+pub mod export;
 mod file;
 pub mod fluorescence;
 pub mod phosphor;

@@ -29,9 +29,9 @@ pub struct MaterialPreset {
     /// Fluorescence: a Donaldson matrix reduced to a basis (Fichet et al. 2024).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fluorescence: Option<FluorescenceSection>,
-    /// Dispersion; fields defined by the dispersion pipeline.
+    /// Dispersion: fitted n(λ), derived numbers and wavelength samples for RGB renderers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub dispersion: Option<OpenSection>,
+    pub dispersion: Option<super::dispersion::DispersionSection>,
     /// Afterimage; fields defined by the afterimage pipeline.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub afterimage: Option<OpenSection>,

@@ -240,6 +240,11 @@ fn check_material(m: &MaterialPreset) -> Vec<String> {
     if let Some(p) = &m.phosphorescence {
         check_phosphorescence(p, &mut out);
     }
+    if let Some(d) = &m.dispersion {
+        for (pointer, message) in super::dispersion::check(d) {
+            out.push(violation(&pointer, &message));
+        }
+    }
     out
 }
 

@@ -52,6 +52,9 @@ pub enum Command {
     /// Afterimages: the Mikamo 2013 luminance and colour transitions, and frames of an image's afterimage.
     #[command(subcommand)]
     Afterimage(crate::commands::afterimage::AfterimageCommand),
+    /// Dispersion: fit n(λ), wavelength samples for RGB renderers, the prism check.
+    #[command(subcommand)]
+    Dispersion(crate::commands::dispersion::DispersionCommand),
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),
@@ -153,6 +156,8 @@ pub enum PresetCommand {
         /// The preset file.
         file: PathBuf,
     },
+    /// Export a preset to a renderer format (glTF 2.0 material, OpenPBR parameters).
+    Export(crate::commands::preset_export::ExportArgs),
 }
 
 #[derive(Debug, Args)]

@@ -4,6 +4,7 @@
 pub mod afterimage;
 pub mod color;
 pub mod demo;
+pub mod dispersion;
 pub mod fluor;
 pub mod light;
 pub mod lvf;
@@ -11,6 +12,7 @@ pub mod lvf_transmission;
 pub mod phos;
 pub mod phos_excitation;
 pub mod preset;
+pub mod preset_export;
 pub mod series;
 pub mod spectrum;
 pub mod synth;
@@ -61,6 +63,8 @@ pub fn run(cli: Cli) -> Result<()> {
             let report = preset::validate(&file)?;
             emit(&serde_json::to_string_pretty(&report)?)
         }
+        Command::Preset(PresetCommand::Export(a)) => preset_export::run(&a),
+        Command::Dispersion(c) => dispersion::run(c),
         Command::Fluor(c) => fluor::run(c),
         Command::Light(c) => light::run(c),
         Command::Phos(PhosCommands::Decay(c)) => phos::run(c),
