@@ -23,6 +23,7 @@ pub mod maps;
 pub mod output;
 pub mod phos_formats;
 pub mod raw;
+pub mod receivers;
 pub mod series;
 pub mod sources;
 pub mod spectrum_csv;
