@@ -3,7 +3,8 @@
 //! - a module may refer only to modules of lower layers (`crate::<module>`, also inside grouped
 //!   imports `use crate::{a::X, b}`), never to its own layer's siblings or above;
 //! - domains (L2) do no file I/O and no printing (outside their `#[cfg(test)]` modules);
-//! - the binary parses no CSV or JSON itself (readers live in `io`/`preset`).
+//! - the binary parses no CSV, JSON or YAML itself and opens no file (readers live in
+//!   `io`/`preset`; it may hand bytes from `io::read_input` to them, e.g. for provenance).
 
 use std::path::{Path, PathBuf};
 
@@ -175,6 +176,48 @@ fn domains_do_no_file_io_and_no_printing() {
     assert!(
         violations.is_empty(),
         "domains must be pure (readers in io, printing in the binary):\n{}",
+        violations.join("\n")
+    );
+}
+
+#[test]
+fn the_binary_parses_no_csv_or_json_itself() {
+    // Readers live in `io`/`preset`; the binary hands paths or bytes to them. Flag values
+    // (`--roi 0,0,8,8`) are split in the binary, which is argument parsing, not a file format.
+    let forbidden = [
+        "serde_json::from_",
+        "parse_numeric_csv",
+        "as_text(",
+        "csv::Reader",
+        "csv::ReaderBuilder",
+        "std::fs::read",
+        "fs::read_to_string",
+        "File::open",
+        "yaml_rust2",
+        "serde_yaml",
+    ];
+    let mut files = Vec::new();
+    rust_files(&src_dir().join("bin"), &mut files);
+    assert!(
+        files.len() >= 5,
+        "only {} binary files scanned",
+        files.len()
+    );
+    let mut violations = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (n, line) in without_tests(&text).lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            for pat in forbidden {
+                if code.contains(pat) {
+                    violations.push(format!("{}:{}: `{pat}`", f.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "the binary parses files itself (move the reader to io or preset):\n{}",
         violations.join("\n")
     );
 }

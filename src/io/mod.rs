@@ -23,6 +23,7 @@ pub mod maps;
 pub mod output;
 pub mod phos_formats;
 pub mod raw;
+pub mod receivers;
 pub mod refractive_index;
 pub mod series;
 pub mod sources;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use lumifit::io::Outputs;
-use lumifit::photometry::illuminance::{illuminance, Method, Receiver, RectLight};
+use lumifit::photometry::illuminance::{illuminance, Method, RectLight};
 use lumifit::photometry::{summary, FileFormat, PhotometricFile, Tilt};
 use serde_json::json;
 
@@ -338,35 +338,7 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
         w,
         h,
     )?;
-    let (bytes, source) = lumifit::io::read_input(&a.points)?;
-    let table = lumifit::table::parse_numeric_csv(&bytes, &source)?;
-    let cols: Vec<usize> = ["x", "y", "z", "nx", "ny", "nz"]
-        .iter()
-        .map(|c| {
-            table.column_index(c).ok_or_else(|| {
-                anyhow::anyhow!(
-                    "{source}: line 1: no column '{c}'; expected columns x,y,z,nx,ny,nz"
-                )
-            })
-        })
-        .collect::<Result<_>>()?;
-    let n = table.n_rows();
-    lumifit::limits::check_memory("--points", &format!("{n} rows"), n as u128, 160)?;
-    let mut receivers = Vec::with_capacity(n);
-    for i in 0..n {
-        let v: Vec<f64> = cols.iter().map(|&c| table.columns[c][i]).collect();
-        let nn = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
-        if nn <= 0.0 || !nn.is_finite() {
-            anyhow::bail!(
-                "{source}: line {}: normal (nx,ny,nz) is zero; expected a direction",
-                table.lines[i]
-            );
-        }
-        receivers.push(Receiver {
-            p: [v[0], v[1], v[2]],
-            n: [v[3] / nn, v[4] / nn, v[5] / nn],
-        });
-    }
+    let receivers = lumifit::io::receivers::read_receivers(&a.points)?;
     let started = std::time::Instant::now();
     let shades = illuminance(&light, &f.photometry.grid, &receivers, m)?;
     let seconds = started.elapsed().as_secs_f64();
@@ -374,27 +346,7 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
     lumifit::error::ensure_finite("E_lux", &a.points.display().to_string(), &e)?;
     let with_std = matches!(m, Method::Mc { .. });
     let with_le = matches!(m, Method::Cubature | Method::CubatureAdaptive { .. });
-    let mut csv = String::from("x,y,z,nx,ny,nz,E_lux");
-    if with_std {
-        csv.push_str(",E_std");
-    }
-    if with_le {
-        csv.push_str(",Le_bar");
-    }
-    csv.push('\n');
-    for (r, s) in receivers.iter().zip(&shades) {
-        csv.push_str(&format!(
-            "{},{},{},{},{},{},{}",
-            r.p[0], r.p[1], r.p[2], r.n[0], r.n[1], r.n[2], s.e_lux
-        ));
-        if with_std {
-            csv.push_str(&format!(",{}", s.e_std.unwrap_or(0.0)));
-        }
-        if with_le {
-            csv.push_str(&format!(",{}", s.le_bar.unwrap_or(0.0)));
-        }
-        csv.push('\n');
-    }
+    let csv = lumifit::io::receivers::shades_to_csv(&receivers, &shades, with_std, with_le);
     out.stage(&a.out, csv.as_bytes())?;
     out.commit()?;
     let evals: usize = shades.iter().map(|s| s.evaluations).sum();
