@@ -339,6 +339,7 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
         h,
     )?;
     let receivers = lumifit::io::receivers::read_receivers(&a.points)?;
+    let n = receivers.len();
     let started = std::time::Instant::now();
     let shades = illuminance(&light, &f.photometry.grid, &receivers, m)?;
     let seconds = started.elapsed().as_secs_f64();
