@@ -280,3 +280,56 @@ fn snippets_refuse_presets_they_cannot_carry() {
     .unwrap_err();
     assert!(e.to_string().contains("fluorescence.rgb.matrix"), "{e}");
 }
+
+#[test]
+fn preset_export_writes_snippets_that_naga_validates_and_refuses_presets_without_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let preset = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/presets/valid_material.json");
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_lumifit"))
+            .args(args)
+            .output()
+            .expect("lumifit runs")
+    };
+    let wgsl = dir.path().join("glow.wgsl");
+    let o = run(&[
+        "preset",
+        "export",
+        preset.to_str().unwrap(),
+        "--format",
+        "wgsl",
+        "--out",
+        wgsl.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&wgsl).unwrap();
+    validate_wgsl(&phos_wgsl_program(&text, 3));
+    let o = run(&[
+        "preset",
+        "export",
+        preset.to_str().unwrap(),
+        "--format",
+        "glsl",
+        "--out",
+        "-",
+    ]);
+    assert!(o.status.success());
+    validate_glsl(&phos_glsl_program(&String::from_utf8(o.stdout).unwrap(), 3));
+    // A preset with no phosphorescence or fluorescence: exit 2, the file named, nothing written.
+    let minimal = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/presets/valid_minimal_material.json");
+    let none = dir.path().join("none.wgsl");
+    let o = run(&[
+        "preset",
+        "export",
+        minimal.to_str().unwrap(),
+        "--format",
+        "wgsl",
+        "--out",
+        none.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("valid_minimal_material.json"));
+    assert!(!none.exists());
+}
