@@ -320,3 +320,38 @@ fn air_to_vacuum_conversion_raises_n_by_the_air_index() {
     let d = abs.n[i] - rel.n[i];
     assert!(d > 3.9e-4 && d < 4.5e-4, "{d}");
 }
+
+#[test]
+fn measured_csv_with_std_gives_v_d_within_three_of_its_standard_deviations() {
+    // N-BK7 from the bundled catalogue, sampled every 10 nm with a deterministic ±2e-5 pattern
+    // (uniform on a fixed grid: mean 0, std 1.2e-5) as "measurement noise"; std column 1.2e-5.
+    let bk7 = lumifit::dispersion::catalogue::glass("N-BK7")
+        .unwrap()
+        .formula;
+    let truth = derived_numbers(&bk7, [380.0, 780.0]).unwrap().abbe_number_d;
+    let mut csv = String::from("wavelength_nm,n,std\n");
+    for (i, l) in (380..=780).step_by(10).enumerate() {
+        let noise = 2e-5 * ((((i * 7919) % 41) as f64) / 20.0 - 1.0);
+        csv.push_str(&format!("{l},{:.8},1.2e-5\n", bk7.n_at(l as f64) + noise));
+    }
+    let obs = lumifit::io::refractive_index::parse_n_csv(csv.as_bytes(), "bk7.csv").unwrap();
+    assert!(obs.std.is_some() && obs.measured);
+    let (obs, covered) = observations(
+        &Source::Table(obs),
+        [380.0, 780.0],
+        AirVacuum::AsGiven,
+        "bk7.csv",
+    )
+    .unwrap();
+    let report = fit_auto(&obs, &ModelKind::ALL, 1e-4, covered).unwrap();
+    let best = report.best();
+    assert!(report.tolerance_met, "{:?}", best);
+    let vd = derived_numbers(&best.model, covered).unwrap().abbe_number_d;
+    let cov = best
+        .covariance
+        .as_ref()
+        .unwrap_or_else(|| panic!("no covariance: {best:?}"));
+    let sd = lumifit::dispersion::derived::abbe_number_std(&best.model, cov).unwrap();
+    assert!(sd > 0.0 && sd < 1.0, "σ(V_d) {sd}");
+    assert!((vd - truth).abs() <= 3.0 * sd, "V_d {vd} ± {sd} vs {truth}");
+}

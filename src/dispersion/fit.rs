@@ -4,11 +4,12 @@
 //! - **Cauchy** (linear in its coefficients): weighted linear least squares, min Σ wᵢ (nᵢ − Σⱼ cⱼ
 //!   λᵢ⁻²ʲ)², solved by QR ([`crate::fit::Qr`]).
 //! - **Sellmeier** (linear in Bᵢ given the poles Cᵢ): variable projection
-//!   ([`crate::fit::solve_separable`], Levenberg–Marquardt on the poles with the Bᵢ ≥ 0 solved
-//!   exactly by NNLS at every step) on y = n² − 1 with row weights 1/(2nσ), so that the weighted
+//!   ([`crate::fit::solve_separable`], Levenberg–Marquardt on the poles with the Bᵢ solved
+//!   exactly at every step, once with Bᵢ ≥ 0 by NNLS and once unbounded, because a term that
+//!   touches the bound Bᵢ = 0 has a zero gradient and its pole is stuck) on y = n² − 1 with row weights 1/(2nσ), so that the weighted
 //!   residual is the first-order Δn (d(n²) = 2n dn). Several pole starts are tried (ultraviolet
 //!   poles near 0.005–0.05 µm², an infrared pole near 100 µm² for three terms); the best
-//!   converged one is kept. A fit whose pole falls inside the fitted range is rejected.
+//!   converged one is kept. A fit with a pole ≤ 0 or inside the fitted range is rejected.
 //!
 //! The RMS and max |Δn| of every candidate are computed on n itself at the observations (for a
 //! formula source, a 1 nm grid over the range, so they are the model error over the range).
@@ -267,6 +268,7 @@ fn fit_cauchy(obs: &Observations, k: usize) -> Result<Model> {
 struct SellmeierBasis {
     l2: Vec<f64>,
     terms: usize,
+    free: bool,
 }
 
 impl SeparableModel for SellmeierBasis {
@@ -283,7 +285,7 @@ impl SeparableModel for SellmeierBasis {
         Some(col)
     }
     fn column_free(&self, _col: usize) -> bool {
-        false
+        self.free
     }
     fn eval(&self, theta: &[f64], basis: &mut [f64], dbasis: &mut [f64]) {
         let m = self.l2.len();
@@ -320,7 +322,16 @@ fn fit_sellmeier(obs: &Observations, terms: usize) -> (Model, String) {
     let l2: Vec<f64> = obs.lambda_nm.iter().map(|l| (l * 1e-3).powi(2)).collect();
     let y: Vec<f64> = obs.n.iter().map(|n| n * n - 1.0).collect();
     let sqrt_w: Vec<f64> = (0..m).map(|i| obs.sqrt_w(i) / (2.0 * obs.n[i])).collect();
-    let basis = SellmeierBasis { l2, terms };
+    let bounded = SellmeierBasis {
+        l2,
+        terms,
+        free: false,
+    };
+    let free = SellmeierBasis {
+        l2: bounded.l2.clone(),
+        terms,
+        free: true,
+    };
     let data = SeparableData {
         y: &y,
         n_rhs: 1,
@@ -332,11 +343,16 @@ fn fit_sellmeier(obs: &Observations, terms: usize) -> (Model, String) {
         xtol: 1e-13,
         gtol: 1e-13,
     };
-    let (lo2, hi2) = (basis.l2[0], basis.l2[m - 1]);
+    let (lo2, hi2) = (bounded.l2[0], bounded.l2[m - 1]);
     let mut best: Option<(f64, Model, String)> = None;
-    for start in pole_starts(terms) {
-        let fit = solve_separable(&basis, data, &start, &opts);
-        let poles_outside = fit.theta.iter().all(|&c| c < lo2 || c > hi2);
+    let starts = pole_starts(terms);
+    for (basis, start) in [&bounded, &free]
+        .into_iter()
+        .flat_map(|b| starts.iter().map(move |s| (b, s)))
+    {
+        let fit = solve_separable(basis, data, start, &opts);
+        // poles are squared resonance wavelengths: positive, and outside the fitted range
+        let poles_outside = fit.theta.iter().all(|&c| c > 0.0 && (c < lo2 || c > hi2));
         if !fit.rss.is_finite() || !poles_outside {
             continue;
         }
@@ -382,11 +398,6 @@ fn assess(obs: &Observations, kind: ModelKind, model: Model, termination: String
     let mut note = String::new();
     if !finite {
         note = termination.clone();
-    }
-    if let Model::Sellmeier(c) = &model {
-        if c.chunks_exact(2).any(|bc| bc[0] == 0.0) && finite {
-            note = "a Sellmeier term has B = 0 (the smaller model fits as well)".into();
-        }
     }
     let valid = finite && note.is_empty();
     let p = kind.n_params();

@@ -162,7 +162,21 @@ pub fn fit_section(
     let (obs, covered) = src::observations(source, cfg.range_nm, cfg.conversion, cfg.source_name)?;
     let report = fit::fit_auto(&obs, &cfg.kinds, cfg.tolerance, covered)?;
     let best = report.best();
-    let d = derived::derived_numbers(&best.model, covered)?;
+    let mut d = derived::derived_numbers(&best.model, covered)?;
+    // For a formula source the glTF curve's error is taken against the source itself (the full
+    // model), and the source's own derived numbers are kept beside the fitted model's.
+    let mut source_numbers = None;
+    if let crate::dispersion::Source::Formula(f) = source {
+        let full = src::Converted {
+            formula: f,
+            conversion: cfg.conversion,
+        };
+        let cauchy = crate::dispersion::Model::Cauchy(vec![d.gltf_cauchy.a, d.gltf_cauchy.b_um2]);
+        let (rms, max) = derived::model_difference(&cauchy, &full, covered);
+        d.gltf_cauchy.rms_error = rms;
+        d.gltf_cauchy.max_abs_error = max;
+        source_numbers = Some(derived::derived_numbers(&full, covered)?);
+    }
     let vd_std = best
         .covariance
         .as_ref()
@@ -207,6 +221,17 @@ pub fn fit_section(
         .collect();
     let json = |v: serde_json::Result<serde_json::Value>| v.unwrap_or(serde_json::Value::Null);
     extra.insert("derived".into(), json(serde_json::to_value(&d)));
+    extra.insert(
+        "gltf_cauchy_error_against".into(),
+        serde_json::json!(if source_numbers.is_some() {
+            "source formula"
+        } else {
+            "fitted model"
+        }),
+    );
+    if let Some(sn) = &source_numbers {
+        extra.insert("derived_source".into(), json(serde_json::to_value(sn)));
+    }
     if let Some(s) = vd_std {
         extra.insert("abbe_number_std".into(), serde_json::json!(s));
     }
