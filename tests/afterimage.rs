@@ -20,12 +20,8 @@ use lumifit::colorimetry::rgb::D65_XY;
 use lumifit::colorimetry::xyy::{xy_to_xyz, xyy_to_xyz};
 use lumifit::io::hdr_image::linear_to_srgb16;
 use lumifit::math::linalg::mat3_mul_vec;
-
-/// Eq. 3 is evaluated by the same formula: agreement is to rounding (1e-12 relative).
-const EQ3_TOL: f64 = 1e-12;
-/// Frames are stored as f32 and blurred with f32 weights: chromaticity and luminance ratios at a
-/// patch centre agree with the f64 model to a few f32 ulps (≈ 1e-7 relative); 2e-6 leaves room.
-const F32_TOL: f64 = 2e-6;
+mod common;
+use common::tolerances::afterimage::*;
 
 /// The model's display matrices (rgb_to_xyz, xyz_to_rgb).
 struct Space {

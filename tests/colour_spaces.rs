@@ -31,9 +31,8 @@ use lumifit::colorimetry::xyy::{xy_to_uv_1960, xyy_to_xyz, xyz_to_xyy};
 use lumifit::spectrum::SpectralShape;
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
-
-/// Half the last printed digit of Sharma et al.'s Table 1 (4 decimals).
-const SHARMA_PUBLISHED_TOLERANCE: f64 = 5e-5;
+mod common;
+use common::tolerances::colour_spaces::*;
 
 #[derive(Deserialize, Clone, Copy)]
 struct Tolerance {

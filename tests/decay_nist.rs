@@ -12,11 +12,8 @@ use std::path::PathBuf;
 
 use lumifit::fit::{levenberg_marquardt, LmOptions, Residuals, Termination};
 use lumifit::phosphor::{fit_decay, AmplitudeModel, DecayCurve, DecayFitOptions, StatesChoice};
-
-/// Fraction of the certified standard deviation within which each parameter must agree.
-const CERTIFIED_SD_FRACTION: f64 = 0.05;
-/// Relative agreement of our standard deviations with the certified ones.
-const SD_REL_TOL: f64 = 0.01;
+mod common;
+use common::tolerances::decay_nist::*;
 
 struct Certified {
     /// NIST's two starting points.

@@ -18,14 +18,8 @@ use lumifit::dispersion::source::observations;
 use lumifit::dispersion::{AirVacuum, ModelKind, RefractiveIndex, Source};
 use lumifit::io::refractive_index::read_rii_yaml;
 use serde_json::Value;
-
-/// Same closed form evaluated in f64 by two implementations: only rounding differs (~1e-15).
-const FORMULA_TOL: f64 = 1e-12;
-/// The same least-squares problem solved by QR here and by numpy's SVD lstsq (condition number
-/// of the λ⁻²ⁱ basis ~1e3): coefficients agree to ~1e-12 relative; 1e-9 leaves room.
-const LSTSQ_REL_TOL: f64 = 1e-9;
-/// Sample weights: the same sums and one division, in a different order.
-const SAMPLES_TOL: f64 = 1e-12;
+mod common;
+use common::tolerances::dispersion::*;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

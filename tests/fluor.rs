@@ -19,13 +19,8 @@ use lumifit::fluor::{
 use lumifit::spectrum::MultiSpectrum;
 use lumifit::table::parse_numeric_csv;
 use nalgebra::{DMatrix, DVector};
-
-/// Exact algebraic identities (P = I, SᵀS̃ = I) evaluated in floating point over sums of a few
-/// hundred terms: 1e-12 leaves headroom over accumulated rounding (~1e-14).
-const ALGEBRA_TOL: f64 = 1e-12;
-/// Port of the same equations against numpy: 1e-9 (GUIDE: bit-for-bit ports), on ΔE00 absolute and
-/// on XYZ and reduced-matrix entries relative to max(|value|, 1).
-const FIXTURE_TOL: f64 = 1e-9;
+mod common;
+use common::tolerances::fluor::*;
 
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/fluorescence")

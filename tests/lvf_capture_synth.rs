@@ -6,16 +6,10 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::tolerances::lvf_capture_synth::*;
 use common::{assert_rejected, lumifit, stderr, write};
 use lumifit::io::filters::read_gel_table;
 use lumifit::lvf::LvfGeometry;
-
-/// Relative agreement of a noise-free 16-bit capture with the model: f32 storage and the rounding
-/// of the 16-bit TIFF (every row of a band window holds the same value, so rounding does not
-/// average out across rows).
-const REL_TOL: f64 = 1e-4;
-/// Half a 16-bit step, the largest rounding error of one stored value.
-const HALF_LSB: f64 = 0.5 / 65535.0;
 
 fn tol(expected: f64) -> f64 {
     REL_TOL * expected.abs() + HALF_LSB

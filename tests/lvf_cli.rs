@@ -3,10 +3,8 @@
 
 mod common;
 
+use common::tolerances::lvf_cli::*;
 use common::{lumifit, stderr};
-
-/// Same bound as tests/lvf_synthetic.rs at 1 % noise.
-const TOL_NM: f64 = 0.3;
 
 #[test]
 fn calibrate_writes_the_lvf_json_contract_and_recovers_the_synthetic_map() {

@@ -23,6 +23,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use common::tolerances::lvf_recovery_e2e::*;
 use common::{assert_rejected, lumifit, stderr};
 use lumifit::colorimetry::delta_e::delta_e_cie2000;
 use lumifit::colorimetry::{
@@ -38,12 +39,6 @@ const NOISE_LEVELS: [(&str, f64, f64); 3] = [
 ];
 /// Noise of the gel photos used to solve the bands.
 const BAND_NOISE: &str = "0.002";
-/// The 40 nm FWHM emission peak must come back within this many nm of its width: the 25 nm
-/// bands 10 nm apart blur it to √(40² + r²) with r the resolution (≈ 15–20 nm at 520 nm with
-/// the GCV weight), i.e. up to ~45 nm — a few nm.
-const PEAK_FWHM_TOL_NM: f64 = 6.0;
-/// Its centre within this (nm): two grid steps' worth of interpolation of the recovered curve.
-const PEAK_CENTRE_TOL_NM: f64 = 3.0;
 
 fn lee_table() -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -6,11 +6,8 @@ use lumifit::lvf::{
     calibrate_peaks, calibrate_whole_profile, extract_profile, render_lvf, synth::default_camera,
     Axis, FitOptions, Lamp, LvfGeometry, LvfSynthSpec,
 };
-
-/// Issue requirement: |Δλ| at 400 and 700 nm within 0.3 nm at 1 % noise.
-const TOL_1PCT_NM: f64 = 0.3;
-/// Issue requirement: within 0.5 nm at 5 % noise and for a CFL.
-const TOL_5PCT_NM: f64 = 0.5;
+mod common;
+use common::tolerances::lvf_synthetic::*;
 
 fn spec(lamp: Lamp, noise: f64, seed: u64) -> LvfSynthSpec {
     LvfSynthSpec {

@@ -18,25 +18,17 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use common::tolerances::lvf_transmission::*;
 use common::{assert_rejected, lumifit, stderr};
 use lumifit::lvf::transmission::BandSet;
 use lumifit::lvf::LvfGeometry;
 
-/// Issue 4: band centres within 0.5 nm of the truth.
-const CENTRE_TOL_NM: f64 = 0.5;
-/// Issue 4: passband FWHM within 1 nm of the truth.
-const FWHM_TOL_NM: f64 = 1.0;
 /// True passband FWHM of the synthetic LVF (nm).
 const TRUE_FWHM_NM: f64 = 25.0;
 /// True map of the synthetic LVF: λ = C0 + C1·px.
 const TRUE_MAP: [f64; 2] = [380.0, 0.6];
-/// A band counts as determined by the gel photos when its reported centre σ is below this
-/// (nm); the others are the bands at the ends where LED-B3 × camera is < 1 % of its peak.
-const DETERMINED_SIGMA_NM: f64 = 0.25;
 /// nnls: median over the bands inside the grid of the camera-weighted relative shape error.
 const NNLS_SHAPE_TOL: [f64; 2] = [0.04, 0.08];
-/// Plain least squares must be at least this many times worse than nnls.
-const LSTSQ_WORSE: f64 = 5.0;
 
 fn lee_table() -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -11,9 +11,8 @@ use lumifit::phosphor::{
     fit_decay, table1_materials, BandCamera, BandSet, DecayCurve, DecayFit, DecayFitOptions,
     DecayFlag, Material, PhosphorState, StatesChoice,
 };
-
-const SIGMA_MULT: f64 = 3.0;
-const EXACT_REL: f64 = 1e-12;
+mod common;
+use common::tolerances::phos_decay::*;
 
 fn spec(seed: u64, interval_s: f64) -> DecaySeriesSpec {
     DecaySeriesSpec {

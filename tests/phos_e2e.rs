@@ -14,6 +14,7 @@ mod common;
 
 use common::{lumifit, p, write};
 
+use common::tolerances::phos_e2e::*;
 use std::collections::HashMap;
 use std::path::Path;
 use std::process::Output;
@@ -25,29 +26,6 @@ const LAMBDA_TABLE1: [f64; 8] = [0.26, 2.55, 2.49, 0.61, 0.0, 0.01, 0.0, 0.10];
 
 /// Relative noise of the synthetic measurements (1 %, the round-trip level).
 const NOISE: f64 = 0.01;
-/// Fitted k_e against Table 1, in reported standard deviations: the σ of the excitation fit
-/// does not include the decay fit's uncertainty in k_r and Λ (≈ 0.1–0.2 % each at 1 % noise),
-/// so 3.5 σ as in tests/phos_excitation.rs rather than 3 σ.
-const K_E_SIGMAS: f64 = 3.5;
-/// Simulated decay against the noise-free input curve, as a fraction of the curve's peak: the
-/// decay fit of 37 frames at 1 % noise reports its amplitude to σ ≈ 0.33 % and k_r to 0.08 %,
-/// Λ's camera scale follows that amplitude, and the strong charging light leaves r at 0.9993
-/// instead of 1 — about 1 % at 3 σ (seed 21: 0.95 %). 2 % is 6 σ, and far below a wrong scale
-/// of Λ (75 % for the box camera, see `lambda_camera_scale`); errors of shape (k_r) are the
-/// business of the χ² bound below, which weighs every frame by its own noise.
-const DECAY_MAX_DEV_OF_PEAK: f64 = 0.02;
-/// Reduced χ² of the simulated decay against the noisy input curve with its `std` column:
-/// about 1 for a correct model (111 values, so 1 ± 0.13); 1.5 is beyond 3.5 standard
-/// deviations of that χ² yet far below any systematic misfit of 1 % or more of the peak.
-const DECAY_MAX_REDUCED_CHI2: f64 = 1.5;
-/// Series path against the CSV it renders, in 16-bit units of the photo (value × exposure
-/// factor × 65535): rounding adds a uniform ±0.5 per pixel (σ 0.29), so a 256-pixel ROI mean
-/// is off by σ ≈ 0.018 units; 0.1 is 5.5 σ over ≈ 300 compared values, while a wrong exposure,
-/// dark level (1311 units) or ROI moves the mean by tens to thousands of units.
-const SERIES_MEAN_UNITS: f64 = 0.1;
-/// The ROI's standard error against the CSV's std, relative: the rendered pattern makes them
-/// equal before rounding; rounding changes a pixel spread of ≥ 16 units by < 10⁻³.
-const SERIES_STD_REL: f64 = 1e-3;
 
 fn ok(o: &Output) -> String {
     assert!(

@@ -6,11 +6,8 @@ use lumifit::phosphor::excitation::{
     StateSharing,
 };
 use lumifit::phosphor::{table1_materials, BandCamera, Material, PhosphorState};
-
-/// A fitted k_e must lie within this many reported standard deviations of the truth. 24
-/// comparisons (8 materials × 3 bands) at a family-wise 5 % level need 3.2σ (Bonferroni);
-/// 3.5σ leaves a little room for the covariance being a linearisation.
-const SIGMAS: f64 = 3.5;
+mod common;
+use common::tolerances::phos_excitation::*;
 
 /// Charging times of the paper's doubling protocol (s).
 const TIMES: [f64; 10] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 256.0, 512.0];

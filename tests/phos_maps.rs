@@ -5,10 +5,8 @@ use lumifit::capture::{Exposure, FrameInfo, PhotoSeries, RgbFrame, SeriesFrame};
 use lumifit::phosphor::maps::fit_pixel_maps;
 use lumifit::phosphor::synth::{DecayFrames, DecaySeriesSpec, FrameLayout};
 use lumifit::phosphor::{table1_material, BandCamera, DecayFitOptions};
-
-/// Relative tolerance on a median rate over many pixels: each pixel's fit at 0.2 % noise has a
-/// rate error of about 1 %, so the median of ≥ 30 pixels is well inside 3 %.
-const MEDIAN_RATE_TOL: f64 = 0.03;
+mod common;
+use common::tolerances::phos_maps::*;
 
 fn series(layout: FrameLayout, w: usize, h: usize, noise: f64) -> (PhotoSeries, DecayFrames) {
     let m = &table1_material("green_paint").unwrap().material;

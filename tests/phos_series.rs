@@ -8,10 +8,8 @@ use std::process::{Command, Output};
 use lumifit::io::series::{load_series, SeriesOptions};
 use lumifit::phosphor::synth::{two_state_variant, DecayFrames, DecaySeriesSpec, FrameLayout};
 use lumifit::phosphor::{table1_material, BandCamera};
-
-/// Relative tolerance on a rate fitted from a 100+-pixel ROI at 1 % per-pixel noise: the ROI
-/// mean has ~0.1 % noise, the rate error is below 1 %; 3 % also covers 16-bit quantisation.
-const ROI_RATE_TOL: f64 = 0.03;
+mod common;
+use common::tolerances::phos_series::*;
 
 fn lumifit(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lumifit"))

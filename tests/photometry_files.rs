@@ -10,10 +10,8 @@ use lumifit::io::read_photometric;
 use lumifit::photometry::{
     summary, OpeningShape, PhotometricFile, PhotometricType, Symmetry, Tilt,
 };
-
-/// EULUMDAT round trip: cd → cd/klm → cd rounds twice (division and multiplication by Φ/1000);
-/// four ulp of relative error bound both roundings with room.
-const LDT_ROUNDTRIP_REL: f64 = 4.0 * f64::EPSILON;
+mod common;
+use common::tolerances::photometry_files::*;
 
 fn data_dir() -> Option<PathBuf> {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/photometric");

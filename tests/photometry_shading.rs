@@ -6,19 +6,14 @@ use lumifit::photometry::illuminance::{
     illuminance, lambertian_illuminance, Method, Receiver, RectLight,
 };
 use lumifit::photometry::{CandelaGrid, PhotometricType};
+mod common;
+use common::tolerances::photometry_shading::*;
 
 /// Intensity of the Lambertian test profile at γ = 0, cd.
 const I0: f64 = 1000.0;
 /// Grid step of the Lambertian profile. Linear interpolation of cos γ on 0.1° steps is off by
 /// at most h²/8 ≈ 4e-7 relative (more only within a degree of 90°, where cos γ → 0).
 const STEP_DEG: f64 = 0.1;
-/// cubature-adaptive must be within 3 % (the issue's requirement) at heights ≥ 0.1·W.
-const ADAPTIVE_REL: f64 = 0.03;
-/// The paper's cubature at height 0.1 over the 4 × 4 m patch (33 × 33 points): the issue quotes
-/// ≈ 28 % low under the light and a median error of ≈ 2 %; measured here 30.5 % worst (at the
-/// footprint's edge) and 3.0 % median. The bounds are those, rounded up.
-const CUBATURE_MAX_REL_H01: f64 = 0.31;
-const CUBATURE_MEDIAN_REL_H01: f64 = 0.035;
 
 fn lambertian() -> CandelaGrid {
     let n = (90.0 / STEP_DEG).round() as usize;

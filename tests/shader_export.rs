@@ -9,10 +9,8 @@ use lumifit::preset::shader::{
     ShaderLanguage,
 };
 use lumifit::preset::{Bands, FluorescenceSection, PhosphorescenceSection, PhosphorescentState};
-
-/// f32 arithmetic (24-bit mantissa, ~6e-8) through a handful of operations and one exp: the
-/// twins must agree with the f64 library to 1e-6 relative (issue 17's bound).
-const TWIN_REL_TOL: f64 = 1e-6;
+mod common;
+use common::tolerances::shader_export::*;
 
 fn section_of(m: &Material) -> PhosphorescenceSection {
     PhosphorescenceSection {
