@@ -366,6 +366,22 @@ fn overflow_is_exit_2_naming_the_input_never_a_null() {
         "printed: {}",
         String::from_utf8_lossy(&o.stdout)
     );
+    // On a 5 nm grid the overflow happens while interpolating to the CMF grid: still named as an
+    // overflow of that spectrum, not as a NaN the input never had.
+    let grid: String = (400..=700)
+        .step_by(5)
+        .map(|w| format!("{w},1e308\n"))
+        .collect();
+    write(d, "huge5.csv", format!("wavelength_nm,value\n{grid}"));
+    let o = lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        &p(d, "huge5.csv"),
+        "--method",
+        "integration",
+    ]);
+    assert_rejected(&o, &["huge5.csv", "not finite", "overflow"]);
 
     let o = lumifit(&[
         "color",

@@ -251,7 +251,18 @@ impl Spectrum {
             .map(|t| t.wavelengths())
             .unwrap_or_else(|_| vec![lo]);
         let values = self.values_at(&target, method)?;
+        self.derived_finite(&values)?;
         Spectrum::new(self.name.clone(), target, values)
+    }
+
+    /// A spectrum derived from finite values (interpolated, resampled) that is no longer finite
+    /// overflowed: say so, naming this spectrum, instead of blaming a NaN the input never had.
+    fn derived_finite(&self, values: &[f64]) -> Result<()> {
+        crate::error::ensure_finite(
+            "the spectrum interpolated to the working grid",
+            &format!("'{}' (values near ±1.8e308 overflow)", self.name),
+            values,
+        )
     }
 
     /// colour's `align`: exactly the grid of `shape`, interpolated inside this spectrum's range and
@@ -266,6 +277,7 @@ impl Spectrum {
             return Ok(self.clone());
         }
         let values = self.values_at(wavelengths_nm, method)?;
+        self.derived_finite(&values)?;
         Spectrum::new(self.name.clone(), wavelengths_nm.to_vec(), values)
     }
 
