@@ -26,10 +26,9 @@
 //! the same precision; the twins are tested against the library's own `f64` simulation and
 //! reduction, and the snippets are parsed and validated by `naga` in `tests/shader_export.rs`.
 
-mod glsl;
 pub mod keyframes;
+mod text;
 mod twin;
-mod wgsl;
 
 pub use twin::{FluorTwin, PhosphorTwin};
 
@@ -113,10 +112,7 @@ pub fn phosphorescence_snippet(
     language: ShaderLanguage,
 ) -> Result<String> {
     let twin = PhosphorTwin::from_section(section, space)?;
-    Ok(match language {
-        ShaderLanguage::Wgsl => wgsl::phosphorescence(name, &space.key, &twin),
-        ShaderLanguage::Glsl => glsl::phosphorescence(name, &space.key, &twin),
-    })
+    Ok(text::phosphorescence(language, name, &space.key, &twin))
 }
 
 /// The snippet of a fluorescence section (its `rgb.matrix`).
@@ -126,10 +122,7 @@ pub fn fluorescence_snippet(
     language: ShaderLanguage,
 ) -> Result<String> {
     let twin = FluorTwin::from_section(section)?;
-    Ok(match language {
-        ShaderLanguage::Wgsl => wgsl::fluorescence(name, &twin),
-        ShaderLanguage::Glsl => glsl::fluorescence(name, &twin),
-    })
+    Ok(text::fluorescence(language, name, &twin))
 }
 
 /// Every snippet a material preset can carry, one after the other: phosphorescence (emission
