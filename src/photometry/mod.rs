@@ -43,7 +43,7 @@ pub mod illuminance;
 pub mod luksch2020;
 
 /// Photometric type (goniometer system), LM-63 field "photometric type" 3/2/1.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub enum PhotometricType {
     /// Type A (automotive): polar axis along the luminaire's lateral axis, see the module docs.
     A,
@@ -54,7 +54,7 @@ pub enum PhotometricType {
 }
 
 /// Symmetry of a Type C distribution: which planes a file stores and how the rest follow.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Symmetry {
     /// One plane for all C (EULUMDAT Isym 1, LM-63 single horizontal angle).
@@ -776,7 +776,7 @@ mod tests {
 }
 
 /// File format a photometry was read from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FileFormat {
     /// IES LM-63 (any version).

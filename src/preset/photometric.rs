@@ -6,13 +6,54 @@
 //! `symmetry`, `horizontal_deg`, `vertical_deg`, `candela_cd` (one row per horizontal angle, the
 //! full circle after symmetry expansion for Type C), `flux_lm` (integrated from the grid),
 //! `lamp_flux_lm` (null: absolute photometry), `max_cd`, `emitter_rect_m` ([W along C0, H along
-//! C90]), `frame` (a sentence), `tilt_factor_applied`.
+//! C90]), `frame` (a sentence), `tilt_factor_applied` — the serde type [`PhotometricSection`].
 
+use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 
 use super::OpenSection;
 use crate::error::{Error, Result};
-use crate::photometry::{summary, CandelaGrid, PhotometricFile, PhotometricType};
+use crate::photometry::{
+    summary, CandelaGrid, FileFormat, PhotometricFile, PhotometricType, Symmetry,
+};
+
+/// The frame sentence every section carries.
+const FRAME: &str = "gamma = 0 along the emitting normal; C = 0 along u (the part of up perpendicular to the normal), C = 90 along v = normal × u; each point of the rectangle radiates I/A";
+
+/// The `photometric` section: one type for the writer ([`photometric_section`]) and the reader
+/// ([`grid_from_section`]), so a renamed field is an error naming it, never a silent miss.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhotometricSection {
+    /// Source file format.
+    pub format: FileFormat,
+    /// Source format version (`LM-63-2002`, `EULUMDAT` …).
+    pub version: String,
+    /// Goniometer system.
+    pub photometric_type: PhotometricType,
+    /// Symmetry the source declared.
+    pub symmetry: Symmetry,
+    /// Horizontal angles C (or H) in degrees.
+    pub horizontal_deg: Vec<f64>,
+    /// Vertical angles γ (or V) in degrees.
+    pub vertical_deg: Vec<f64>,
+    /// Candela, one row per horizontal angle (full circle after symmetry expansion for Type C).
+    pub candela_cd: Vec<Vec<f64>>,
+    /// Luminous flux integrated from the grid.
+    pub flux_lm: f64,
+    /// Declared lamp flux; `None` for absolute photometry.
+    pub lamp_flux_lm: Option<f64>,
+    /// Largest candela value.
+    pub max_cd: f64,
+    /// Emitter rectangle [W along C0, H along C90] in m.
+    pub emitter_rect_m: [f64; 2],
+    /// The frame convention, as a sentence.
+    pub frame: String,
+    /// TILT factor applied to the grid.
+    pub tilt_factor_applied: f64,
+    /// Further fields, kept as read.
+    #[serde(flatten)]
+    pub extra: OpenSection,
+}
 
 /// The section for `file` shaded as a `width_m` × `height_m` rectangle.
 pub fn photometric_section(
@@ -35,67 +76,48 @@ pub fn photometric_section(
         &[s.flux_lm, s.max_cd],
     )?;
     let nv = g.nv();
-    let rows: Vec<Value> = (0..g.h_deg.len())
-        .map(|i| json!(g.cd[i * nv..(i + 1) * nv]))
-        .collect();
-    let v = json!({
-        "format": file.format,
-        "version": file.version,
-        "photometric_type": g.kind,
-        "symmetry": p.symmetry,
-        "horizontal_deg": g.h_deg,
-        "vertical_deg": g.v_deg,
-        "candela_cd": rows,
-        "flux_lm": s.flux_lm,
-        "lamp_flux_lm": p.lamp_flux_lm,
-        "max_cd": s.max_cd,
-        "emitter_rect_m": [width_m, height_m],
-        "frame": "gamma = 0 along the emitting normal; C = 0 along u (the part of up perpendicular to the normal), C = 90 along v = normal × u; each point of the rectangle radiates I/A",
-        "tilt_factor_applied": p.tilt_applied.1,
-    });
-    match v {
-        Value::Object(m) => Ok(m),
+    let section = PhotometricSection {
+        format: file.format,
+        version: file.version.clone(),
+        photometric_type: g.kind,
+        symmetry: p.symmetry,
+        horizontal_deg: g.h_deg.clone(),
+        vertical_deg: g.v_deg.clone(),
+        candela_cd: (0..g.h_deg.len())
+            .map(|i| g.cd[i * nv..(i + 1) * nv].to_vec())
+            .collect(),
+        flux_lm: s.flux_lm,
+        lamp_flux_lm: p.lamp_flux_lm,
+        max_cd: s.max_cd,
+        emitter_rect_m: [width_m, height_m],
+        frame: FRAME.to_string(),
+        tilt_factor_applied: p.tilt_applied.1,
+        extra: OpenSection::new(),
+    };
+    match serde_json::to_value(&section) {
+        Ok(Value::Object(m)) => Ok(m),
         _ => Err(Error::invalid("photometric section", "not a JSON object")),
     }
+}
+
+/// The typed section of a preset's `photometric` object; errors name the file and the field.
+pub fn read_section(section: &OpenSection, file: &str) -> Result<PhotometricSection> {
+    serde_json::from_value(Value::Object(section.clone())).map_err(|e| Error::SchemaViolation {
+        file: file.to_string(),
+        details: format!("  /photometric: {e}"),
+    })
 }
 
 /// The candela grid of a section written by [`photometric_section`] (for round trips and for
 /// consumers that shade from the preset).
 pub fn grid_from_section(section: &OpenSection, file: &str) -> Result<CandelaGrid> {
-    let bad = |what: &str| Error::SchemaViolation {
-        file: file.to_string(),
-        details: format!("  /photometric/{what}: missing or not the expected type"),
-    };
-    let nums = |key: &str| -> Result<Vec<f64>> {
-        section
-            .get(key)
-            .and_then(Value::as_array)
-            .ok_or_else(|| bad(key))?
-            .iter()
-            .map(|x| x.as_f64().ok_or_else(|| bad(key)))
-            .collect()
-    };
-    let kind = match section.get("photometric_type").and_then(Value::as_str) {
-        Some("A") => PhotometricType::A,
-        Some("B") => PhotometricType::B,
-        Some("C") => PhotometricType::C,
-        _ => return Err(bad("photometric_type")),
-    };
-    let h = nums("horizontal_deg")?;
-    let v = nums("vertical_deg")?;
-    let rows = section
-        .get("candela_cd")
-        .and_then(Value::as_array)
-        .ok_or_else(|| bad("candela_cd"))?;
-    let mut cd = Vec::with_capacity(h.len() * v.len());
-    for r in rows {
-        for x in r.as_array().ok_or_else(|| bad("candela_cd"))? {
-            cd.push(x.as_f64().ok_or_else(|| bad("candela_cd"))?);
+    let s = read_section(section, file)?;
+    let cd: Vec<f64> = s.candela_cd.into_iter().flatten().collect();
+    CandelaGrid::new(s.photometric_type, s.horizontal_deg, s.vertical_deg, cd).map_err(|e| {
+        Error::SchemaViolation {
+            file: file.to_string(),
+            details: format!("  /photometric: {e}"),
         }
-    }
-    CandelaGrid::new(kind, h, v, cd).map_err(|e| Error::SchemaViolation {
-        file: file.to_string(),
-        details: format!("  /photometric: {e}"),
     })
 }
 
@@ -216,4 +238,36 @@ pub fn quaternion_from_columns(x: [f64; 3], y: [f64; 3], z: [f64; 3]) -> [f64; 4
         qz = 0.25 * s;
     }
     [qx, qy, qz, qw]
+}
+
+#[cfg(test)]
+mod section_tests {
+    use super::*;
+
+    fn section() -> OpenSection {
+        let v = json!({
+            "format": "ies", "version": "LM-63-2019", "photometric_type": "C",
+            "symmetry": "none", "horizontal_deg": [0.0, 90.0, 180.0, 270.0],
+            "vertical_deg": [0.0, 90.0], "candela_cd": [[100.0, 0.0], [100.0, 0.0], [100.0, 0.0], [100.0, 0.0]],
+            "flux_lm": 150.0, "lamp_flux_lm": null, "max_cd": 100.0,
+            "emitter_rect_m": [1.0, 1.0], "frame": FRAME, "tilt_factor_applied": 1.0
+        });
+        v.as_object().unwrap().clone()
+    }
+
+    #[test]
+    fn a_section_reads_back_into_its_grid() {
+        let g = grid_from_section(&section(), "l.json").unwrap();
+        assert_eq!(g.h_deg.len(), 4);
+        assert_eq!(g.cd[0], 100.0);
+    }
+
+    #[test]
+    fn a_renamed_field_is_an_error_naming_it() {
+        let mut s = section();
+        let cd = s.remove("candela_cd").unwrap();
+        s.insert("candela".into(), cd);
+        let e = grid_from_section(&s, "l.json").unwrap_err().to_string();
+        assert!(e.contains("l.json") && e.contains("candela_cd"), "{e}");
+    }
 }
