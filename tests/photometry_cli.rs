@@ -322,3 +322,104 @@ fn light_preset_holds_the_full_grid_and_the_source_hash_and_validates() {
     ]);
     assert_rejected(&o, &["--rect"]);
 }
+
+#[test]
+fn light_preset_gltf_of_every_type_c_data_file_passes_the_khronos_validator_and_its_ies_reads_back()
+{
+    let d = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/photometric");
+    if !d.is_dir() {
+        assert!(
+            std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+            "LUMIFIT_REQUIRE_DATA=1 but {} is absent",
+            d.display()
+        );
+        eprintln!("skipping: {} is absent", d.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut gltfs = Vec::new();
+    for sub in std::fs::read_dir(&d).unwrap() {
+        let sub = sub.unwrap().path();
+        if !sub.is_dir() {
+            continue;
+        }
+        for f in std::fs::read_dir(&sub).unwrap() {
+            let f = f.unwrap().path();
+            let ext = f
+                .extension()
+                .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                .unwrap_or_default();
+            if ext != "ies" && ext != "ldt" {
+                continue;
+            }
+            let stem = f.file_stem().unwrap().to_string_lossy().to_string();
+            let gltf = dir.path().join(format!("{stem}.gltf"));
+            let o = lumifit(&[
+                "light",
+                "preset",
+                f.to_str().unwrap(),
+                "--out",
+                &p(dir.path(), &format!("{stem}.json")),
+                "--gltf",
+                gltf.to_str().unwrap(),
+                "--rect",
+                "0.5,0.5",
+            ]);
+            if !o.status.success() {
+                // Only Type A/B photometry is refused (EXT_lights_ies is Type C), and nothing is written.
+                let e = common::stderr(&o);
+                assert!(e.contains("only Type C"), "{}: {e}", f.display());
+                assert!(!gltf.exists());
+                continue;
+            }
+            // The IES written beside the glTF is read back by lumifit with the same flux (the
+            // export mirrors C, which keeps the integral).
+            let ies = dir.path().join(format!("{stem}.ies"));
+            let flux = |path: &std::path::Path| -> f64 {
+                let o = lumifit(&["light", "inspect", path.to_str().unwrap(), "--json"]);
+                assert!(
+                    o.status.success(),
+                    "{}: {}",
+                    path.display(),
+                    common::stderr(&o)
+                );
+                let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+                v["flux_from_grid_lm"]
+                    .as_f64()
+                    .expect("flux_from_grid_lm in light inspect --json")
+            };
+            let (a, b) = (flux(&f), flux(&ies));
+            assert!(
+                (a - b).abs() <= 1e-6 * a.abs().max(1e-9),
+                "{stem}: {a} vs {b} lm"
+            );
+            gltfs.push(gltf);
+        }
+    }
+    assert!(gltfs.len() >= 10, "only {} files exported", gltfs.len());
+    if std::process::Command::new("node")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        eprintln!("SKIPPED: node is not installed; the Khronos glTF validator did not run");
+        return;
+    }
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
+    let o = std::process::Command::new("bash")
+        .arg(script)
+        .args(&gltfs)
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "validator: {report}{}",
+        common::stderr(&o)
+    );
+    assert_eq!(
+        report.matches(" 0 errors, 0 warnings").count(),
+        gltfs.len(),
+        "{report}"
+    );
+}

@@ -44,6 +44,20 @@ pub struct PresetArgs {
     /// Output preset JSON.
     #[arg(long, value_name = "light.json")]
     pub out: PathBuf,
+    /// Also write a glTF 2.0 file placing the light (`KHR_lights_punctual` point light of the
+    /// equivalent isotropic intensity, plus `EXT_lights_ies` with the profile as an LM-63-2019
+    /// file written beside it as `<FILE stem>.ies`), in the frame of --center/--normal/--up.
+    #[arg(long, value_name = "light.gltf")]
+    pub gltf: Option<PathBuf>,
+    /// glTF: centre of the emitter in m (glTF is Y-up; default 2.5 m above the origin).
+    #[arg(long, default_value = "0,2.5,0", allow_hyphen_values = true)]
+    pub center: String,
+    /// glTF: emitting normal (γ = 0; default straight down).
+    #[arg(long, default_value = "0,-1,0", allow_hyphen_values = true)]
+    pub normal: String,
+    /// glTF: up hint; C = 0° points along its part perpendicular to the normal.
+    #[arg(long, default_value = "0,0,1", allow_hyphen_values = true)]
+    pub up: String,
 }
 
 #[derive(Debug, Args)]
@@ -388,6 +402,16 @@ fn preset(a: &PresetArgs) -> Result<()> {
     let mut out = Outputs::new();
     out.input(&a.file);
     out.declare("--out", &a.out)?;
+    let ies_path = a.gltf.as_ref().map(|g| {
+        let stem = g
+            .file_stem()
+            .map_or_else(|| "light".into(), |s| s.to_string_lossy().into_owned());
+        g.with_file_name(format!("{stem}.ies"))
+    });
+    if let (Some(g), Some(i)) = (&a.gltf, &ies_path) {
+        out.declare("--gltf", g)?;
+        out.declare("--gltf (IES beside it)", i)?;
+    }
     let f = read(&a.file, a.lamp_tilt)?;
     let (w, h) = rect(a.rect.as_deref(), &f, &a.file)?;
     let section = lumifit::preset::photometric::photometric_section(&f, w, h)?;
@@ -403,6 +427,30 @@ fn preset(a: &PresetArgs) -> Result<()> {
     let p = lumifit::preset::LightPreset::new(name, provenance, section);
     let text = lumifit::preset::to_json_string(&p)?;
     out.stage(&a.out, text.as_bytes())?;
+    if let (Some(g), Some(i)) = (&a.gltf, &ies_path) {
+        let light = RectLight::new(
+            parse_triplet("--center", &a.center)?,
+            parse_triplet("--normal", &a.normal)?,
+            parse_triplet("--up", &a.up)?,
+            w,
+            h,
+        )?;
+        let uri = i
+            .file_name()
+            .map_or_else(|| "light.ies".into(), |s| s.to_string_lossy().into_owned());
+        let (doc, ies) = lumifit::preset::photometric::gltf_light(&f, &light, &p.name, &uri)?;
+        out.stage(g, (serde_json::to_string_pretty(&doc)? + "\n").as_bytes())?;
+        out.stage(i, &ies)?;
+    }
     out.commit()?;
-    emit(&json!({"in": a.file.display().to_string(), "out": a.out.display().to_string(), "rect_m": [w, h]}).to_string())
+    emit(
+        &json!({
+            "in": a.file.display().to_string(),
+            "out": a.out.display().to_string(),
+            "gltf": a.gltf.as_ref().map(|g| g.display().to_string()),
+            "ies": ies_path.as_ref().map(|i| i.display().to_string()),
+            "rect_m": [w, h],
+        })
+        .to_string(),
+    )
 }
