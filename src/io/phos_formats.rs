@@ -125,15 +125,22 @@ impl CurveCsv {
                 "both 'std' and 'weight' columns; give one",
             ));
         }
+        // The region curve of `series extract` (`time_s,r,g,b,r_std,g_std,b_std,n_pixels,
+        // n_saturated`): the per-channel pixel spreads and the counts accompany the values.
+        let ni = t.column_index("n_pixels");
+        let aux = |c: usize| {
+            let h = t.header[c].to_ascii_lowercase();
+            h.ends_with("_std") || h == "n_pixels" || h == "n_saturated"
+        };
         let chans: Vec<usize> = (0..t.header.len())
-            .filter(|&c| c != ti && Some(c) != si && Some(c) != wi)
+            .filter(|&c| c != ti && Some(c) != si && Some(c) != wi && !aux(c))
             .collect();
         if chans.len() != 1 && chans.len() != 3 {
             return Err(Error::parse(
                 source,
                 1,
                 format!(
-                    "{} value columns; expected 1 or 3 (r,g,b) besides time_s and std/weight",
+                    "{} value columns; expected 1 or 3 (r,g,b) besides time_s, std/weight and the *_std/n_pixels/n_saturated columns of series extract",
                     chans.len()
                 ),
             ));
@@ -145,9 +152,35 @@ impl CurveCsv {
             si.map(|i| &t.columns[i][..]),
             wi.map(|i| &t.columns[i][..]),
         )?;
-        let sigma = match (si, wi) {
-            (Some(i), _) => Some((SigmaColumn::Std, t.columns[i].clone())),
-            (_, Some(i)) => Some((SigmaColumn::Weight, t.columns[i].clone())),
+        // Per-channel spreads `<channel>_std` of every value channel (and no shared std/weight):
+        // the shared σ of a row is the RMS over channels of the standard error of the region
+        // mean, std_c / √n_pixels (the fit weights rows, not channels).
+        let per_channel: Option<Vec<usize>> = chans
+            .iter()
+            .map(|&c| t.column_index(&format!("{}_std", t.header[c])))
+            .collect();
+        let sigma = match (si, wi, per_channel) {
+            (Some(i), _, _) => Some((SigmaColumn::Std, t.columns[i].clone())),
+            (_, Some(i), _) => Some((SigmaColumn::Weight, t.columns[i].clone())),
+            (None, None, Some(pc)) => {
+                let rows = t.columns[ti].len();
+                let sig: Vec<f64> = (0..rows)
+                    .map(|r| {
+                        let n = ni.map_or(1.0, |k| t.columns[k][r].max(1.0));
+                        let ms: f64 = pc.iter().map(|&k| t.columns[k][r].powi(2)).sum::<f64>()
+                            / pc.len() as f64;
+                        (ms / n).sqrt()
+                    })
+                    .collect();
+                if let Some(r) = sig.iter().position(|v| !v.is_finite() || *v <= 0.0) {
+                    return Err(Error::parse(
+                        source,
+                        t.lines[r],
+                        "the per-channel *_std columns are all 0 in this row; expected a spread > 0 (or give a 'std' column)",
+                    ));
+                }
+                Some((SigmaColumn::Std, sig))
+            }
             _ => None,
         };
         Ok(Self {
@@ -1182,6 +1215,22 @@ impl KeyframesCsv {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_series_extract_curve_reads_with_its_spreads_as_standard_errors() {
+        let csv = "time_s,r,g,b,r_std,g_std,b_std,n_pixels,n_saturated\n\
+                   0,1,2,3,0.3,0.4,0.5,100,0\n10,0.5,1,1.5,0.3,0.4,0.5,25,0\n";
+        let c = CurveCsv::parse(csv.as_bytes(), "c.csv").unwrap();
+        assert_eq!(c.names, vec!["r", "g", "b"]);
+        let (kind, sig) = c.sigma.clone().unwrap();
+        assert_eq!(kind, SigmaColumn::Std);
+        let rms = ((0.09f64 + 0.16 + 0.25) / 3.0).sqrt();
+        assert!((sig[0] - rms / 10.0).abs() < 1e-15 && (sig[1] - rms / 5.0).abs() < 1e-15);
+        // An explicit std column still wins, and an unknown extra column is still refused.
+        let e = CurveCsv::parse(b"time_s,r,g,b,x\n0,1,1,1,1\n", "d.csv").unwrap_err();
+        assert!(e.to_string().contains("4 value columns"), "{e}");
+    }
+
     use super::*;
 
     const BOM: &str = "\u{feff}";
