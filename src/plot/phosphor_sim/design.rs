@@ -182,21 +182,15 @@ pub fn design_chart_png(c: &DesignChart<'_>) -> Result<Vec<u8>> {
         let top_h = h_upper * 30 / 100;
         let (top, bottom) = plots.split_vertically(top_h);
 
-        let mut e_chart = spectral_axes(
+        irradiance_panel(
             &top,
-            &AxesSpec {
-                caption: Some("irradiance history E per channel"),
-                x_label: &x_label,
-                y_label: "irradiance E",
-                x_range,
-                y_range: (0.0, if e_max > 0.0 { e_max * 1.12 } else { 1.0 }),
-                n_ticks: (10, 4),
-            },
+            "irradiance history E per channel",
+            &x_label,
+            x_range,
+            e_max,
+            &e_lines,
+            4,
         )?;
-        for (_, colour, pts) in &e_lines {
-            let pts: Vec<(f64, Option<f64>)> = pts.iter().map(|(x, y)| (*x, Some(*y))).collect();
-            draw_line(&mut e_chart, &pts, *colour, 2, false)?;
-        }
 
         let mut chart = spectral_axes(
             &bottom,

@@ -349,6 +349,35 @@ pub(super) type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64,
 
 /// Draws a curve with gaps at `None`; points outside the x range are dropped and y is clamped
 /// to the axis (plotters does not clip). Light colours get a dark halo.
+/// The irradiance-history panel both charts draw: E per channel or band as step lines on
+/// `area`, the y axis from 0 to 12 % above the largest value (1 when all are 0).
+pub(super) fn irradiance_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    x_label: &str,
+    x_range: (f64, f64),
+    e_max: f64,
+    lines: &[Series<(f64, f64)>],
+    n_y_ticks: usize,
+) -> Result<()> {
+    let mut chart = spectral_axes(
+        area,
+        &AxesSpec {
+            caption: Some(caption),
+            x_label,
+            y_label: "irradiance E",
+            x_range,
+            y_range: (0.0, if e_max > 0.0 { e_max * 1.12 } else { 1.0 }),
+            n_ticks: (10, n_y_ticks),
+        },
+    )?;
+    for (_, colour, pts) in lines {
+        let pts: Vec<(f64, Option<f64>)> = pts.iter().map(|(x, y)| (*x, Some(*y))).collect();
+        draw_line(&mut chart, &pts, *colour, 2, false)?;
+    }
+    Ok(())
+}
+
 pub(super) fn draw_line<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
     pts: &[(f64, Option<f64>)],

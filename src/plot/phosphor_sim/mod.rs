@@ -280,21 +280,15 @@ pub fn simulate_chart_png(c: &SimulateChart<'_>) -> Result<Vec<u8>> {
             draw_line(&mut chart, &scale.map_points(&pts), *colour, 2, false)?;
         }
 
-        let mut e_chart = spectral_axes(
+        irradiance_panel(
             &bottom,
-            &AxesSpec {
-                caption: Some("irradiance history E per band"),
-                x_label: &x_label,
-                y_label: "irradiance E",
-                x_range,
-                y_range: (0.0, if e_max > 0.0 { e_max * 1.12 } else { 1.0 }),
-                n_ticks: (10, 5),
-            },
+            "irradiance history E per band",
+            &x_label,
+            x_range,
+            e_max,
+            &e_lines,
+            5,
         )?;
-        for (_, colour, pts) in &e_lines {
-            let pts: Vec<(f64, Option<f64>)> = pts.iter().map(|(x, y)| (*x, Some(*y))).collect();
-            draw_line(&mut e_chart, &pts, *colour, 2, false)?;
-        }
 
         let mut top_items: Vec<LegendItem> = vec![LegendItem::heading(what)];
         top_items.extend(series.iter().map(|(label, colour, values)| {
