@@ -128,3 +128,488 @@ fn a_series_extract_curve_feeds_phos_fit_decay() {
     // Table 1: green paint k_r = 0.227 s⁻¹; 1 % noise over 4096 pixels pins it far tighter.
     assert!((k - 0.227).abs() < 0.03 * 0.227, "k_r = {k}");
 }
+
+/// Green paint of Table 1 (k_r = 0.227 s⁻¹, k_e = 0.1, 0.035, 0.006 in the first three bands)
+/// with Λ the band averages of its step spectrum (as `fit-decay --spectrum` reads a spectrum;
+/// see tests/phos_e2e.rs): writes `emission.csv` and `truth.json`, returns their paths.
+fn green_paint_sample(d: &std::path::Path) -> (String, String) {
+    const LAMBDA: [f64; 8] = [0.0, 0.0, 0.07, 0.64, 0.05, 0.0, 0.0, 0.0];
+    let mut spec = String::from("wavelength_nm,value\n");
+    for (b, l) in LAMBDA.iter().enumerate() {
+        let lo = 400.0 + 37.5 * b as f64;
+        spec.push_str(&format!("{},{l}\n{},{l}\n", lo + 0.01, lo + 37.5 - 0.01));
+    }
+    let emission = write(d, "emission.csv", &spec);
+    let (wl, v): (Vec<f64>, Vec<f64>) = spec
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (a, b) = l.split_once(',').unwrap();
+            (a.parse::<f64>().unwrap(), b.parse::<f64>().unwrap())
+        })
+        .unzip();
+    let lumifit::phosphor::BandSet::RangesNm(ranges) =
+        lumifit::phosphor::BandSet::uniform(400.0, 700.0, 8).unwrap()
+    else {
+        panic!("uniform bands are wavelength bands")
+    };
+    let shape = lumifit::phosphor::band_spectrum(&wl, &v, &ranges).unwrap();
+    let lambda: Vec<f64> = shape.iter().map(|s| s * 0.64).collect();
+    let mut k_e = GREEN_K_E.to_vec();
+    k_e.resize(8, 0.0);
+    let truth = serde_json::json!({
+        "schema": "lumifit.material/1",
+        "name": "green_paint_truth",
+        "provenance": {
+            "tool": "lumifit", "tool_version": "0.1.0", "command": "tests/chains.rs",
+            "created_utc": "2026-01-01T00:00:00Z", "inputs": [],
+        },
+        "phosphorescence": {
+            "bands": ranges,
+            "states": [{ "k_r_per_s": 0.227, "k_e": k_e, "lambda": lambda }],
+        },
+    });
+    let truth = write(d, "truth.json", serde_json::to_vec_pretty(&truth).unwrap());
+    (
+        emission.to_string_lossy().to_string(),
+        truth.to_string_lossy().to_string(),
+    )
+}
+
+/// Table 1, green paint: k_e of the first three bands.
+const GREEN_K_E: [f64; 3] = [0.1, 0.035, 0.006];
+
+fn json_file(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// `phos fit-excitation` on `material` with the charging data of `green_paint_sample`;
+/// returns (k_e of the first three bands, their σ, the report).
+fn fit_excitation_on(
+    d: &std::path::Path,
+    material: &str,
+    out: &str,
+) -> (Vec<f64>, Vec<f64>, serde_json::Value, String) {
+    let o = lumifit(&[
+        "phos",
+        "fit-excitation",
+        "--material",
+        material,
+        "--data",
+        &p(d, "ch.csv"),
+        "--source",
+        &p(d, "ch.source.csv"),
+        "--camera",
+        &p(d, "ch.camera.csv"),
+        "--out",
+        &p(d, out),
+    ]);
+    ok(&o);
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let fin = json_file(&d.join(out));
+    let k: Vec<f64> = fin["phosphorescence"]["states"][0]["k_e"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .take(3)
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let s: Vec<f64> = report["bands"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["k_e_sigma"][0].as_f64().unwrap())
+        .collect();
+    (k, s, report, stderr(&o))
+}
+
+/// The 16× chain: `synth phos-decay` charges green paint 5400 s under |E| = 1, which
+/// leaves r(0) = 0.18; `phos fit-decay` reads that protocol from the series' `charging.json`
+/// and `phos fit-excitation` solves k_e and r(0) together, recovering Table 1 within 3σ. The
+/// same chain told the sample was saturated (a lie) misses by far more than 3σ, so the test
+/// can fail; without any protocol fit-decay warns and records the assumption.
+#[test]
+fn synth_decay_then_fit_decay_then_fit_excitation_recovers_table1_green_paint() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (emission, truth) = green_paint_sample(d);
+    // Defaults: 5400 s under flat |E| = 1. Short exposures so that window means equal the
+    // instantaneous values (the decay fit reads frame-start times).
+    ok(&lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        &truth,
+        "--exposure-s",
+        "0.01",
+        "--seed",
+        "31",
+        "--curve-only",
+        "--out",
+        &p(d, "decay"),
+    ]));
+    let charging = json_file(&d.join("decay/charging.json"));
+    assert_eq!(charging["protocol"], "flat", "{charging}");
+    let r0 = json_file(&d.join("decay/manifest.json"))["r_at_switch_off"][0]
+        .as_f64()
+        .unwrap();
+    assert!((r0 - 0.18).abs() < 0.01, "r(0) = {r0}");
+    let fit_decay = |extra: &[&str], curve: &str, out: &str| {
+        let mut args = vec![
+            "phos",
+            "fit-decay",
+            curve,
+            "--spectrum",
+            &emission,
+            "--bands",
+            "8",
+            "--states",
+            "1",
+        ];
+        args.extend_from_slice(extra);
+        let o_path = p(d, out);
+        args.extend_from_slice(&["--out", &o_path]);
+        let o = lumifit(&args);
+        ok(&o);
+        stderr(&o)
+    };
+    let curve = p(d, "decay/curve.csv");
+    let note = fit_decay(&[], &curve, "material.json");
+    assert!(note.contains("charging protocol from"), "{note}");
+    let m = json_file(&d.join("material.json"));
+    assert_eq!(
+        m["phosphorescence"]["decay_fit"]["charging"]["protocol"], "flat",
+        "{}",
+        m["phosphorescence"]["decay_fit"]
+    );
+    ok(&lumifit(&[
+        "synth",
+        "phos-excitation",
+        "--material",
+        &truth,
+        "--bands",
+        "3",
+        "--seed",
+        "32",
+        "--out",
+        &p(d, "ch.csv"),
+    ]));
+    let (k, s, report, _) = fit_excitation_on(d, &p(d, "material.json"), "final.json");
+    println!(
+        "k_e {k:?} ± {s:?}; decay charging {}",
+        report["decay_charging"]
+    );
+    for b in 0..3 {
+        assert!(
+            (k[b] - GREEN_K_E[b]).abs() < 3.0 * s[b],
+            "band {}: k_e {} ± {} against Table 1 {}",
+            b + 1,
+            k[b],
+            s[b],
+            GREEN_K_E[b]
+        );
+    }
+    let r_fit = report["decay_charging"]["r_at_switch_off"][0]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (r_fit - r0).abs() < 0.05 * r0,
+        "r(0) fitted {r_fit}, true {r0}"
+    );
+    // Λ corrected back to the truth (peak 0.64 of band 4, as band averages).
+    let fin = json_file(&d.join("final.json"));
+    let lam = fin["phosphorescence"]["states"][0]["lambda"][3]
+        .as_f64()
+        .unwrap();
+    let lam_true = json_file(std::path::Path::new(&truth))["phosphorescence"]["states"][0]
+        ["lambda"][3]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (lam - lam_true).abs() < 0.05 * lam_true,
+        "Λ[4] {lam} against {lam_true}"
+    );
+    ok(&lumifit(&["preset", "validate", &p(d, "final.json")]));
+    // The control: the same data called saturated give the old, far too high rates.
+    fit_decay(&["--saturated"], &curve, "lie.json");
+    let (k_lie, s_lie, _, _) = fit_excitation_on(d, &p(d, "lie.json"), "final_lie.json");
+    assert!(
+        (k_lie[0] - GREEN_K_E[0]).abs() > 10.0 * s_lie[0] && k_lie[0] > 2.0 * GREEN_K_E[0],
+        "saturated reading: k_e {k_lie:?} ± {s_lie:?}"
+    );
+    // No protocol at all: a loud warning, and the preset says what was assumed.
+    std::fs::create_dir(d.join("bare")).unwrap();
+    std::fs::copy(d.join("decay/curve.csv"), d.join("bare/curve.csv")).unwrap();
+    let warn = fit_decay(&[], &p(d, "bare/curve.csv"), "unknown.json");
+    assert!(
+        warn.contains("WARNING") && warn.contains("--saturated"),
+        "{warn}"
+    );
+    let u = json_file(&d.join("unknown.json"));
+    assert_eq!(
+        u["phosphorescence"]["decay_fit"]["charging"]["protocol"],
+        "unknown"
+    );
+    let (_, _, _, warn) = fit_excitation_on(d, &p(d, "unknown.json"), "final_unknown.json");
+    assert!(warn.contains("WARNING"), "{warn}");
+}
+
+/// An RGB decay preset has a way to wavelength bands: `fit-excitation` refuses it (exit 2,
+/// nothing written) naming the missing measurement — the glow's emission spectrum — and the
+/// commands that provide it; following that advice (an LVF photo of the glow → `spectrum
+/// recover` → `fit-decay --spectrum`) gives a preset `fit-excitation` accepts, with Table 1's
+/// band-1 rate to 20 % (the recovered spectrum is a smoothed step).
+#[test]
+fn an_rgb_decay_preset_reaches_wavelength_bands_through_an_lvf_photo_of_the_glow() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (emission, truth) = green_paint_sample(d);
+    ok(&lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        &truth,
+        "--saturated",
+        "--exposure-s",
+        "0.01",
+        "--seed",
+        "41",
+        "--curve-only",
+        "--out",
+        &p(d, "decay"),
+    ]));
+    let curve = p(d, "decay/curve.csv");
+    ok(&lumifit(&[
+        "phos",
+        "fit-decay",
+        &curve,
+        "--out",
+        &p(d, "rgb.json"),
+    ]));
+    ok(&lumifit(&[
+        "synth",
+        "phos-excitation",
+        "--material",
+        &truth,
+        "--bands",
+        "3",
+        "--seed",
+        "42",
+        "--out",
+        &p(d, "ch.csv"),
+    ]));
+    let excite = |material: &str, out: &str| {
+        lumifit(&[
+            "phos",
+            "fit-excitation",
+            "--material",
+            material,
+            "--data",
+            &p(d, "ch.csv"),
+            "--source",
+            &p(d, "ch.source.csv"),
+            "--camera",
+            &p(d, "ch.camera.csv"),
+            "--out",
+            &p(d, out),
+        ])
+    };
+    let o = excite(&p(d, "rgb.json"), "x.json");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let msg = stderr(&o);
+    for want in [
+        "RGB bands",
+        "emission spectrum",
+        "spectrum recover",
+        "--spectrum",
+    ] {
+        assert!(msg.contains(want), "missing '{want}' in: {msg}");
+    }
+    assert!(!d.join("x.json").exists());
+    // The advice: the glow through the LVF, recovered, as the decay fit's emission spectrum.
+    ok(&lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p(d, "hg.tiff"),
+        "--truth",
+        &p(d, "hg_truth.json"),
+        "--seed",
+        "1",
+    ]));
+    ok(&lumifit(&[
+        "lvf",
+        "calibrate",
+        &p(d, "hg.tiff"),
+        "--roi",
+        "0,0,1200,160",
+        "--axis",
+        "x",
+        "--out",
+        &p(d, "lvf.json"),
+    ]));
+    ok(&lumifit(&[
+        "synth",
+        "lvf-capture",
+        "--spectrum",
+        &emission,
+        "--lvf",
+        &p(d, "lvf.json"),
+        "--size",
+        "1200x160",
+        "--seed",
+        "2",
+        "--out",
+        &p(d, "glow.tiff"),
+    ]));
+    ok(&lumifit(&[
+        "spectrum",
+        "recover",
+        &p(d, "glow.tiff"),
+        "--bands",
+        &p(d, "lvf.json"),
+        "--out",
+        &p(d, "glow.csv"),
+    ]));
+    ok(&lumifit(&[
+        "phos",
+        "fit-decay",
+        &curve,
+        "--spectrum",
+        &p(d, "glow.csv"),
+        "--bands",
+        "8",
+        "--out",
+        &p(d, "wl.json"),
+    ]));
+    let o = excite(&p(d, "wl.json"), "final.json");
+    ok(&o);
+    let fin = json_file(&d.join("final.json"));
+    let k = fin["phosphorescence"]["states"][0]["k_e"][0]
+        .as_f64()
+        .unwrap();
+    println!("band-1 k_e through the recovered glow spectrum: {k} (Table 1: 0.1)");
+    assert!(
+        (k - GREEN_K_E[0]).abs() < 0.2 * GREEN_K_E[0],
+        "k_e[1] = {k}"
+    );
+}
+
+/// lamp photo → `lvf calibrate` → captures of a patch and a white reference under LED-B3 →
+/// `spectrum recover --illuminant LED-B3 --white … --preset` → `preset validate`: the recovered
+/// reflectance becomes a material preset whose `reflectance` section follows the patch (a ramp
+/// from 0.2 at 400 nm to 0.7 at 700 nm) to 0.08; without a reflectance mode `--preset` is
+/// refused (exit 2, nothing written).
+#[test]
+fn a_recovered_reflectance_becomes_a_valid_material_preset() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p(d, "hg.tiff"),
+        "--truth",
+        &p(d, "truth.json"),
+        "--seed",
+        "1",
+    ]));
+    ok(&lumifit(&[
+        "lvf",
+        "calibrate",
+        &p(d, "hg.tiff"),
+        "--roi",
+        "0,0,1200,160",
+        "--axis",
+        "x",
+        "--out",
+        &p(d, "lvf.json"),
+    ]));
+    write(
+        d,
+        "patch.csv",
+        "wavelength_nm,value\n380,0.2\n400,0.2\n700,0.7\n780,0.7\n",
+    );
+    write(d, "white.csv", "wavelength_nm,value\n380,1\n780,1\n");
+    for (refl, out, seed) in [
+        ("patch.csv", "patch.tiff", "3"),
+        ("white.csv", "white.tiff", "4"),
+    ] {
+        ok(&lumifit(&[
+            "synth",
+            "lvf-capture",
+            "--reflectance",
+            &p(d, refl),
+            "--illuminant",
+            "LED-B3",
+            "--lvf",
+            &p(d, "lvf.json"),
+            "--size",
+            "1200x160",
+            "--seed",
+            seed,
+            "--out",
+            &p(d, out),
+        ]));
+    }
+    let o = lumifit(&[
+        "spectrum",
+        "recover",
+        &p(d, "patch.tiff"),
+        "--bands",
+        &p(d, "lvf.json"),
+        "--out",
+        &p(d, "light.csv"),
+        "--preset",
+        &p(d, "light.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--illuminant"), "{}", stderr(&o));
+    assert!(!d.join("light.csv").exists() && !d.join("light.json").exists());
+    ok(&lumifit(&[
+        "spectrum",
+        "recover",
+        &p(d, "patch.tiff"),
+        "--bands",
+        &p(d, "lvf.json"),
+        "--illuminant",
+        "LED-B3",
+        "--white",
+        &p(d, "white.tiff"),
+        "--out",
+        &p(d, "rec.csv"),
+        "--preset",
+        &p(d, "patch.json"),
+        "--name",
+        "ramp patch",
+    ]));
+    ok(&lumifit(&["preset", "validate", &p(d, "patch.json")]));
+    let m = json_file(&d.join("patch.json"));
+    assert_eq!(m["schema"], "lumifit.material/1");
+    assert_eq!(m["name"], "ramp patch");
+    let wl = m["reflectance"]["wavelength_nm"].as_array().unwrap();
+    let v = m["reflectance"]["value"].as_array().unwrap();
+    assert!(wl.len() > 10 && wl.len() == v.len());
+    let mut worst = 0.0_f64;
+    for (w, r) in wl.iter().zip(v) {
+        let (w, r) = (w.as_f64().unwrap(), r.as_f64().unwrap());
+        if (420.0..=680.0).contains(&w) {
+            let truth = 0.2 + 0.5 * (w - 400.0) / 300.0;
+            worst = worst.max((r - truth).abs());
+        }
+    }
+    println!("worst |R − truth| over 420–680 nm: {worst:.4}");
+    assert!(worst < 0.08, "worst reflectance error {worst}");
+    // The preset's values are the CSV's.
+    let csv = std::fs::read_to_string(d.join("rec.csv")).unwrap();
+    let first: f64 = csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((first - v[0].as_f64().unwrap()).abs() <= 1e-9 * first.abs().max(1.0));
+}

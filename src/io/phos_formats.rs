@@ -17,6 +17,7 @@
 //! | source spectra | [`SourceSpectraCsv`] | `wavelength_nm,band1,band2,…` |
 //! | design history | [`DesignHistoryCsv`] | `time_s,e_r,e_g,e_b` |
 //! | keyframe targets | [`KeyframesCsv`] | `time_s,l_r,l_g,l_b` |
+//! | charging protocol of a decay series | [`ChargingJson`] | `charging.json`: `{"schema": "lumifit.charging/1", "protocol": …}` |
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -27,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::io::read_input;
 use crate::phosphor::design::{IrradianceHistory, Keyframe};
 use crate::phosphor::excitation::{band_means_exact, unit_length, ChargingSample};
-use crate::phosphor::{BandCamera, BandSet, DecayCurve, Segment, Simulation};
+use crate::phosphor::{BandCamera, BandSet, DecayCharging, DecayCurve, Segment, Simulation};
 use crate::spectrum::MultiSpectrum;
 use crate::table::{as_text, parse_numeric_csv, NumericTable};
 
@@ -1213,6 +1214,92 @@ impl KeyframesCsv {
     }
 }
 
+/// Schema tag of [`ChargingJson`].
+pub const CHARGING_SCHEMA: &str = "lumifit.charging/1";
+
+/// File name of the charging sidecar beside a decay series (its manifest or curve CSV).
+pub const CHARGING_SIDECAR: &str = "charging.json";
+
+/// `charging.json`: how the sample of a decay series was charged before switch-off, written by
+/// `synth phos-decay` beside its manifest and curve and read by `phos fit-decay`:
+///
+/// ```json
+/// {"schema": "lumifit.charging/1", "protocol": "flat", "duration_s": 5400, "irradiance": 1}
+/// {"schema": "lumifit.charging/1", "protocol": "saturated"}
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChargingJson {
+    /// Always [`CHARGING_SCHEMA`].
+    pub schema: String,
+    /// The protocol (`protocol` tag and its fields).
+    #[serde(flatten)]
+    pub charging: DecayCharging,
+}
+
+impl ChargingJson {
+    /// The sidecar of `charging`.
+    pub fn new(charging: DecayCharging) -> Self {
+        Self {
+            schema: CHARGING_SCHEMA.into(),
+            charging,
+        }
+    }
+
+    /// Parses a sidecar from `bytes`; errors name `source`, the line and what was expected.
+    ///
+    /// # Errors
+    /// [`Error::Parse`] for bad JSON or an unknown protocol, [`Error::InvalidArgument`] for
+    /// another schema or a duration/irradiance that is not > 0.
+    pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
+        let v: serde_json::Value = crate::io::parse_json(bytes, source)?;
+        let schema = v.get("schema").and_then(|s| s.as_str()).unwrap_or("");
+        if schema != CHARGING_SCHEMA {
+            return Err(Error::invalid(
+                format!("{source}: schema"),
+                format!("'{schema}'; expected \"{CHARGING_SCHEMA}\""),
+            ));
+        }
+        let c: Self = serde_json::from_value(v).map_err(|e| {
+            Error::invalid(
+                format!("{source}: protocol"),
+                format!(
+                    "{e}; expected \"protocol\": \"saturated\", \"unknown\" or \"flat\" \
+                     with \"duration_s\" and \"irradiance\""
+                ),
+            )
+        })?;
+        c.charging
+            .validate()
+            .map_err(|e| Error::invalid(source.to_string(), e.to_string()))?;
+        Ok(c)
+    }
+
+    /// Reads a sidecar file.
+    ///
+    /// # Errors
+    /// As [`ChargingJson::parse`]; I/O errors name the path.
+    pub fn read(path: &Path) -> Result<Self> {
+        let (bytes, source) = read_input(path)?;
+        Self::parse(&bytes, &source)
+    }
+
+    /// The sidecar as pretty JSON text.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default() + "\n"
+    }
+
+    /// The sidecar beside `input` (a curve CSV, a manifest CSV or a series folder), if one exists.
+    pub fn beside(input: &Path) -> Option<std::path::PathBuf> {
+        let dir = if input.is_dir() {
+            input.to_path_buf()
+        } else {
+            input.parent().map(Path::to_path_buf).unwrap_or_default()
+        };
+        let p = dir.join(CHARGING_SIDECAR);
+        p.is_file().then_some(p)
+    }
+}
+
 #[cfg(test)]
 mod tests {
 
@@ -1461,5 +1548,36 @@ mod tests {
             SimulationCsv::parse(s.to_csv().as_bytes(), "s.csv").unwrap(),
             s
         );
+    }
+
+    #[test]
+    fn a_charging_sidecar_reads_back_and_bad_ones_name_the_file_and_field() {
+        let c = ChargingJson::new(DecayCharging::Flat {
+            duration_s: 5400.0,
+            irradiance: 1.0,
+        });
+        let text = c.to_json();
+        assert_eq!(ChargingJson::parse(text.as_bytes(), "c.json").unwrap(), c);
+        let e = ChargingJson::parse(
+            br#"{"schema": "lumifit.charging/1", "protocol": "flat", "duration_s": 0, "irradiance": 1}"#,
+            "c.json",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("c.json") && e.contains("duration_s"), "{e}");
+        let e = ChargingJson::parse(
+            br#"{"schema": "lumifit.charging/1", "protocol": "sunny"}"#,
+            "c.json",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("c.json: protocol") && e.contains("saturated"),
+            "{e}"
+        );
+        let e = ChargingJson::parse(br#"{"protocol": "saturated"}"#, "c.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("schema"), "{e}");
     }
 }

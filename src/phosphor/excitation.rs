@@ -24,6 +24,18 @@
 //! a_i, so the data determine only the product k_e·Λ: the fit still reports k_e (given Λ from
 //! the decay fit) and flags the band `product_only`.
 //!
+//! **The decay measurement's charge.** Λ comes from a decay fit, whose amplitudes are
+//! Λ_i k_r,i r_i(0): Λ is exact only when the decay sample was saturated at switch-off. When it
+//! was charged for T_d under flat light ([`DecayCharging::Flat`],
+//! [`ExcitationOptions::decay_charging`]), the decay fit's Λ is the apparent Λ_i·r_i(0) and
+//! r_i(0) = a_i/(a_i + k_r,i)(1 − e^{−(a_i + k_r,i)T_d}) with a_i = Σ_b k_e,i[b] E_d[b] depends
+//! on the very rates fitted here. The fit then solves both together: a scan over a common
+//! r(0) = c ∈ [10⁻⁴, 1] (per-band fits with Λ/c) brackets the self-consistent c where the rates
+//! give back r_0(0) = c, bisection finds it (a charge that reaches equilibrium makes this a
+//! tangency: then golden section finds the c closest to it), and Levenberg–Marquardt over all bands' rates at
+//! once, with Λ_i = Λ_i,apparent / r_i(0; k_e) in the model, gives the final rates and their
+//! covariance (the coupling through r(0) included). Bands not measured keep their k_e (or 0).
+//!
 //! No colour-science counterpart exists.
 
 // Index loops mirror the matrix notation of the maths; `!(a > b)` comparisons deliberately
@@ -35,6 +47,7 @@ use crate::fit::search::log_grid_min;
 use crate::fit::stats::{self, bic};
 use crate::fit::{levenberg_marquardt, LmOptions, Residuals};
 
+use super::charging::DecayCharging;
 use super::material::Material;
 use super::simulate::{final_state, BandCamera, Segment};
 use super::synth::Gaussian;
@@ -79,6 +92,8 @@ pub struct ExcitationOptions {
     pub sharing: StateSharing,
     /// Maximum LM iterations.
     pub max_iterations: usize,
+    /// How the decay sample that gave Λ was charged (saturated: Λ as given).
+    pub decay_charging: DecayCharging,
 }
 
 impl Default for ExcitationOptions {
@@ -87,8 +102,27 @@ impl Default for ExcitationOptions {
             switch_off_delay_s: 0.6,
             sharing: StateSharing::Auto,
             max_iterations: 200,
+            decay_charging: DecayCharging::Saturated,
         }
     }
+}
+
+/// The decay measurement's state at switch-off, solved with k_e (a flat decay charge).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DecayStateFit {
+    /// The protocol of the decay measurement.
+    pub charging: DecayCharging,
+    /// r_i(0) per state implied by the fitted k_e.
+    pub r0: Vec<f64>,
+    /// Factor applied to each state's Λ (1/r_i(0)).
+    pub lambda_factor: Vec<f64>,
+    /// Starts of the joint fit: the self-consistent values of r(0) of the scan (the one with
+    /// the least χ² is used), or the value closest to consistency when the scan only touches it.
+    pub roots: Vec<f64>,
+    /// Levenberg–Marquardt iterations of the joint fit.
+    pub iterations: usize,
+    /// Whether the joint fit converged.
+    pub converged: bool,
 }
 
 /// The fit of one band.
@@ -135,6 +169,8 @@ pub struct ExcitationFit {
     pub bands: Vec<BandFit>,
     /// Switch-off delay used.
     pub switch_off_delay_s: f64,
+    /// With a flat decay charge: r(0) of the decay measurement and the Λ correction.
+    pub decay_state: Option<DecayStateFit>,
 }
 
 /// Precomputed per-state camera response and decay.
@@ -433,7 +469,10 @@ fn check_delay(delay_s: f64) -> Result<()> {
 }
 
 /// Fits k_e per band. `sources` gives, per measured band, the unit-length source irradiance
-/// over the material's bands. Every band present in `data` needs a source.
+/// over the material's bands. Every band present in `data` needs a source. With a flat
+/// [`ExcitationOptions::decay_charging`], Λ of `material` is read as the apparent Λ·r(0) of that
+/// decay measurement and solved together with k_e (module docs); [`apply_excitation`] and
+/// [`corrected_material`] then carry the corrected Λ.
 pub fn fit_excitation(
     material: &Material,
     camera: &BandCamera,
@@ -443,8 +482,31 @@ pub fn fit_excitation(
 ) -> Result<ExcitationFit> {
     material.validate()?;
     check_delay(opts.switch_off_delay_s)?;
+    opts.decay_charging.validate()?;
+    let inputs = band_inputs(material, sources, data)?;
+    if opts.decay_charging.assumes_saturation() {
+        return Ok(ExcitationFit {
+            bands: fit_bands(material, camera, &inputs, opts)?,
+            switch_off_delay_s: opts.switch_off_delay_s,
+            decay_state: None,
+        });
+    }
+    fit_with_decay_charging(material, camera, &inputs, opts)
+}
+
+/// The samples of one measured band.
+struct BandInput<'a> {
+    band: usize,
+    s_j: f64,
+    samples: Vec<&'a ChargingSample>,
+}
+
+fn band_inputs<'a>(
+    material: &Material,
+    sources: &[(usize, Vec<f64>)],
+    data: &'a [ChargingSample],
+) -> Result<Vec<BandInput<'a>>> {
     let nb = material.bands.len();
-    let ns = material.states.len();
     let mut bands: Vec<usize> = data.iter().map(|s| s.band).collect();
     bands.sort_unstable();
     bands.dedup();
@@ -454,7 +516,7 @@ pub fn fit_excitation(
             "no charging samples; expected rows band,charge_s,r,g,b",
         ));
     }
-    let mut fits = Vec::new();
+    let mut out = Vec::new();
     for &j in &bands {
         if j >= nb {
             return Err(Error::invalid(
@@ -503,30 +565,394 @@ pub fn fit_excitation(
                 ),
             ));
         }
-        fits.push(fit_band(material, camera, j, s_j, &samples, opts, ns)?);
+        out.push(BandInput {
+            band: j,
+            s_j,
+            samples,
+        });
+    }
+    Ok(out)
+}
+
+fn fit_bands(
+    material: &Material,
+    camera: &BandCamera,
+    inputs: &[BandInput],
+    opts: &ExcitationOptions,
+) -> Result<Vec<BandFit>> {
+    let ns = material.states.len();
+    inputs
+        .iter()
+        .map(|b| fit_band(material, camera, b.band, b.s_j, &b.samples, opts, ns))
+        .collect()
+}
+
+/// `material` with each state's Λ multiplied by `factor[i]`.
+fn scale_lambda(material: &Material, factor: &[f64]) -> Material {
+    let mut m = material.clone();
+    for (st, f) in m.states.iter_mut().zip(factor) {
+        for l in &mut st.lambda {
+            *l *= f;
+        }
+    }
+    m
+}
+
+/// Per-band rates of `fits` written into `material` (as [`apply_excitation`], without the Λ
+/// correction).
+fn with_rates(material: &Material, bands: &[(usize, Vec<f64>)]) -> Material {
+    let nb = material.bands.len();
+    let mut m = material.clone();
+    for (i, st) in m.states.iter_mut().enumerate() {
+        let mut k = st.k_e.clone().unwrap_or_else(|| vec![0.0; nb]);
+        for (b, ke) in bands {
+            if *b < nb {
+                k[*b] = ke[i];
+            }
+        }
+        st.k_e = Some(k);
+    }
+    m
+}
+
+/// Number of points of the r(0) scan over [`R0_SCAN_MIN`, 1] (log-spaced).
+const R0_SCAN_POINTS: usize = 41;
+/// Smallest r(0) of the scan.
+const R0_SCAN_MIN: f64 = 1e-4;
+
+/// Per-band fits with Λ/c, the r(0) those rates imply, and the total χ².
+fn scan_point(
+    material: &Material,
+    camera: &BandCamera,
+    inputs: &[BandInput],
+    opts: &ExcitationOptions,
+    c: f64,
+) -> Result<(Vec<BandFit>, Vec<f64>, f64)> {
+    let ns = material.states.len();
+    let m = scale_lambda(material, &vec![1.0 / c; ns]);
+    let fits = fit_bands(&m, camera, inputs, opts)?;
+    let rates: Vec<(usize, Vec<f64>)> = fits.iter().map(|f| (f.band, f.k_e.clone())).collect();
+    let r0 = opts
+        .decay_charging
+        .state_at_switch_off(&with_rates(material, &rates))?;
+    let chi2 = fits.iter().map(|f| f.chi2).sum();
+    Ok((fits, r0, chi2))
+}
+
+/// ln r_0(0; k_e(c)) − ln c: zero where the rates fitted with Λ/c give back r(0) = c.
+fn mismatch(r0: &[f64], c: f64) -> f64 {
+    r0[0].max(1e-300).ln() - c.ln()
+}
+
+/// All bands' rates at once with Λ_i / r_i(0; k_e) (finite-difference Jacobian).
+struct Joint<'a> {
+    material: &'a Material,
+    camera: &'a BandCamera,
+    inputs: &'a [BandInput<'a>],
+    /// Parameters per band (1 shared, or one per state).
+    n_per_band: Vec<usize>,
+    weights: Vec<Vec<f64>>,
+    charging: &'a DecayCharging,
+    delay_s: f64,
+}
+
+impl Joint<'_> {
+    fn rates(&self, p: &[f64]) -> Vec<(usize, Vec<f64>)> {
+        let ns = self.material.states.len();
+        let mut at = 0;
+        self.inputs
+            .iter()
+            .zip(&self.n_per_band)
+            .map(|(b, &n)| {
+                let k = expand(&p[at..at + n], ns);
+                at += n;
+                (b.band, k)
+            })
+            .collect()
+    }
+
+    /// r(0) and the material with Λ corrected, for parameters `p`.
+    fn corrected(&self, p: &[f64]) -> Option<(Vec<f64>, Material)> {
+        let rates = self.rates(p);
+        let r0 = self
+            .charging
+            .state_at_switch_off(&with_rates(self.material, &rates))
+            .ok()?;
+        if r0.iter().any(|r| !(*r > 0.0 && r.is_finite())) {
+            return None;
+        }
+        let f: Vec<f64> = r0.iter().map(|r| 1.0 / r).collect();
+        Some((r0, scale_lambda(self.material, &f)))
+    }
+}
+
+impl Residuals for Joint<'_> {
+    fn n_residuals(&self) -> usize {
+        self.inputs.iter().map(|b| 3 * b.samples.len()).sum()
+    }
+    fn n_params(&self) -> usize {
+        self.n_per_band.iter().sum()
+    }
+    fn residuals(&self, theta: &[f64], out: &mut [f64]) -> bool {
+        let Some((_, m)) = self.corrected(theta) else {
+            return false;
+        };
+        let rates = self.rates(theta);
+        let mut at = 0;
+        for ((b, w), (_, k)) in self.inputs.iter().zip(&self.weights).zip(&rates) {
+            let model = Model::new(&m, self.camera, b.s_j, self.delay_s);
+            for (s, wt) in b.samples.iter().zip(w) {
+                let y = model.rgb(k, s.charge_s);
+                for c in 0..3 {
+                    out[at] = (y[c] - s.rgb[c]) * wt;
+                    at += 1;
+                }
+            }
+        }
+        true
+    }
+}
+
+fn fit_with_decay_charging(
+    material: &Material,
+    camera: &BandCamera,
+    inputs: &[BandInput],
+    opts: &ExcitationOptions,
+) -> Result<ExcitationFit> {
+    let ns = material.states.len();
+    // 1. Scan a common r(0) = c and bracket the self-consistent values.
+    let grid: Vec<f64> = (0..R0_SCAN_POINTS)
+        .map(|q| {
+            let u = q as f64 / (R0_SCAN_POINTS - 1) as f64;
+            (R0_SCAN_MIN.ln() * (1.0 - u)).exp()
+        })
+        .collect();
+    let mut g = Vec::with_capacity(grid.len());
+    for &c in &grid {
+        let (_, r0, _) = scan_point(material, camera, inputs, opts, c)?;
+        g.push(mismatch(&r0, c));
+    }
+    let mut roots = Vec::new();
+    for q in 0..grid.len() - 1 {
+        let (mut lo, mut hi) = (grid[q].ln(), grid[q + 1].ln());
+        let (mut glo, ghi) = (g[q], g[q + 1]);
+        if glo == 0.0 {
+            roots.push(grid[q]);
+            continue;
+        }
+        if !(glo.is_finite() && ghi.is_finite()) || glo.signum() == ghi.signum() {
+            continue;
+        }
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            let (_, r0, _) = scan_point(material, camera, inputs, opts, mid.exp())?;
+            let gm = mismatch(&r0, mid.exp());
+            if gm.signum() == glo.signum() {
+                lo = mid;
+                glo = gm;
+            } else {
+                hi = mid;
+            }
+        }
+        roots.push((0.5 * (lo + hi)).exp());
+    }
+    if g.last().is_some_and(|v| *v == 0.0) {
+        roots.push(1.0);
+    }
+    if roots.is_empty() {
+        // The consistency can be a tangency (a decay charge that reaches equilibrium gives an r(0)
+        // of the same rates): start from the c closest to consistency, refined by golden section
+        // on |mismatch| around the best grid point; the joint fit below enforces it exactly.
+        let q = (0..g.len())
+            .filter(|&q| g[q].is_finite())
+            .min_by(|&a, &b| g[a].abs().total_cmp(&g[b].abs()))
+            .ok_or_else(|| {
+                Error::invalid(
+                    "charging data",
+                    format!(
+                        "no excitation rates are consistent with the decay measurement ({})",
+                        opts.decay_charging.describe()
+                    ),
+                )
+            })?;
+        let (mut lo, mut hi) = (
+            grid[q.saturating_sub(1)].ln(),
+            grid[(q + 1).min(grid.len() - 1)].ln(),
+        );
+        let phi = 0.5 * (5f64.sqrt() - 1.0);
+        let at = |x: f64| -> Result<f64> {
+            let (_, r0, _) = scan_point(material, camera, inputs, opts, x.exp())?;
+            Ok(mismatch(&r0, x.exp()).abs())
+        };
+        let (mut x1, mut x2) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+        let (mut f1, mut f2) = (at(x1)?, at(x2)?);
+        for _ in 0..30 {
+            if f1 < f2 {
+                hi = x2;
+                x2 = x1;
+                f2 = f1;
+                x1 = hi - phi * (hi - lo);
+                f1 = at(x1)?;
+            } else {
+                lo = x1;
+                x1 = x2;
+                f1 = f2;
+                x2 = lo + phi * (hi - lo);
+                f2 = at(x2)?;
+            }
+        }
+        roots.push((0.5 * (lo + hi)).exp());
+    }
+    let mut best: Option<(f64, Vec<BandFit>, f64)> = None;
+    for &c in &roots {
+        let (fits, _, chi2) = scan_point(material, camera, inputs, opts, c)?;
+        if best.as_ref().is_none_or(|b| chi2 < b.2) {
+            best = Some((c, fits, chi2));
+        }
+    }
+    let Some((_, start, _)) = best else {
+        return Err(Error::invalid(
+            "charging data",
+            "no start for the joint fit of k_e and r(0)",
+        ));
+    };
+    // 2. All bands at once with the exact coupling through r(0).
+    let n_per_band: Vec<usize> = start
+        .iter()
+        .map(|f| if f.shared { 1 } else { ns })
+        .collect();
+    let mut p0 = Vec::new();
+    for (f, &n) in start.iter().zip(&n_per_band) {
+        p0.extend(f.k_e.iter().take(n).copied());
+    }
+    let weights: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|b| sample_weights(&b.samples).0)
+        .collect();
+    let known_sigma = inputs.iter().all(|b| sample_weights(&b.samples).1);
+    let joint = Joint {
+        material,
+        camera,
+        inputs,
+        n_per_band: n_per_band.clone(),
+        weights,
+        charging: &opts.decay_charging,
+        delay_s: opts.switch_off_delay_s,
+    };
+    let lm = LmOptions {
+        max_iter: opts.max_iterations,
+        lower: Some(vec![0.0; p0.len()]),
+        ..LmOptions::default()
+    };
+    let rep = levenberg_marquardt(&joint, &p0, &lm);
+    let p = rep.theta.clone();
+    let Some((r0, corrected)) = joint.corrected(&p) else {
+        return Err(Error::invalid(
+            "charging data",
+            "the joint fit of k_e and the decay measurement's r(0) left r(0) = 0",
+        ));
+    };
+    // Covariance of the joint fit (finite-difference Jacobian at the optimum).
+    let m = joint.n_residuals();
+    let np = p.len();
+    let mut r_plus = vec![0.0; m];
+    let mut r_minus = vec![0.0; m];
+    let mut jac = vec![0.0; m * np];
+    let mut jac_ok = true;
+    for q in 0..np {
+        let h = 1e-6 * p[q].abs().max(1e-6);
+        let mut pp = p.clone();
+        pp[q] += h;
+        let mut pm = p.clone();
+        pm[q] = (pm[q] - h).max(0.0);
+        let dh = pp[q] - pm[q];
+        jac_ok &= joint.residuals(&pp, &mut r_plus) && joint.residuals(&pm, &mut r_minus);
+        for i in 0..m {
+            jac[q * m + i] = (r_plus[i] - r_minus[i]) / dh;
+        }
+    }
+    let mut res = vec![0.0; m];
+    joint.residuals(&p, &mut res);
+    let chi2_total: f64 = res.iter().map(|r| r * r).sum();
+    let s2 = if !known_sigma && m > np {
+        chi2_total / (m - np) as f64
+    } else {
+        1.0
+    };
+    let sig: Vec<f64> = match stats::covariance_scaled(&jac, m, np, s2).filter(|_| jac_ok) {
+        Some(c) => (0..np).map(|i| c[i * np + i].max(0.0).sqrt()).collect(),
+        None => vec![f64::INFINITY; np],
+    };
+    // 3. The band records at the joint optimum, with Λ corrected.
+    let rates = joint.rates(&p);
+    let sig_rates = joint.rates(&sig);
+    let mut bands = Vec::with_capacity(inputs.len());
+    for ((((b, f), (_, k)), (_, ks)), w) in inputs
+        .iter()
+        .zip(&start)
+        .zip(&rates)
+        .zip(&sig_rates)
+        .zip(&joint.weights)
+    {
+        let model = Model::new(&corrected, camera, b.s_j, opts.switch_off_delay_s);
+        let prob = Problem {
+            model: &model,
+            t: b.samples.iter().map(|s| s.charge_s).collect(),
+            y: b.samples.iter().map(|s| s.rgb).collect(),
+            w: w.clone(),
+        };
+        let chi2 = prob.chi2(&k[..]);
+        let r_max = prob
+            .t
+            .iter()
+            .flat_map(|t| {
+                (0..ns)
+                    .map(|i| model.r_and_deriv(i, k[i], *t).0)
+                    .collect::<Vec<_>>()
+            })
+            .fold(0.0_f64, f64::max);
+        bands.push(BandFit {
+            band: b.band,
+            k_e: k.clone(),
+            k_e_sigma: ks.clone(),
+            shared: f.shared,
+            sharing_reason: f.sharing_reason.clone(),
+            source_sum: b.s_j,
+            r_max,
+            product_only: r_max < SATURATION_MIN,
+            charge_s: prob.t.clone(),
+            data: prob.y.clone(),
+            model: prob.t.iter().map(|t| model.rgb(k, *t)).collect(),
+            equilibrium: model.equilibrium(k),
+            rms: (chi2 / (3 * b.samples.len()) as f64).sqrt(),
+            chi2,
+            iterations: rep.iterations,
+            converged: rep.termination.converged(),
+        });
     }
     Ok(ExcitationFit {
-        bands: fits,
+        bands,
         switch_off_delay_s: opts.switch_off_delay_s,
+        decay_state: Some(DecayStateFit {
+            charging: opts.decay_charging.clone(),
+            lambda_factor: r0.iter().map(|r| 1.0 / r).collect(),
+            r0,
+            roots,
+            iterations: rep.iterations,
+            converged: rep.termination.converged(),
+        }),
     })
 }
 
-fn fit_band(
-    material: &Material,
-    camera: &BandCamera,
-    j: usize,
-    s_j: f64,
-    samples: &[&ChargingSample],
-    opts: &ExcitationOptions,
-    ns: usize,
-) -> Result<BandFit> {
-    let model = Model::new(material, camera, s_j, opts.switch_off_delay_s);
+/// Weights 1/σ of `samples` (σ as given when every sample has one, else relative with a floor
+/// of 10⁻³ of the peak) and whether σ was known.
+fn sample_weights(samples: &[&ChargingSample]) -> (Vec<f64>, bool) {
     let peak = samples
         .iter()
         .flat_map(|s| s.rgb.iter())
         .fold(0.0_f64, |m, v| m.max(v.abs()));
     let known_sigma = samples.iter().all(|s| s.sigma.is_some_and(|v| v > 0.0));
-    let w: Vec<f64> = samples
+    let w = samples
         .iter()
         .map(|s| {
             let sd = match s.sigma {
@@ -543,6 +969,20 @@ fn fit_band(
             }
         })
         .collect();
+    (w, known_sigma)
+}
+
+fn fit_band(
+    material: &Material,
+    camera: &BandCamera,
+    j: usize,
+    s_j: f64,
+    samples: &[&ChargingSample],
+    opts: &ExcitationOptions,
+    ns: usize,
+) -> Result<BandFit> {
+    let model = Model::new(material, camera, s_j, opts.switch_off_delay_s);
+    let (w, known_sigma) = sample_weights(samples);
     let prob = Problem {
         model: &model,
         t: samples.iter().map(|s| s.charge_s).collect(),
@@ -640,11 +1080,20 @@ pub fn band_curve(
     charge_s.iter().map(|t| model.rgb(&fit.k_e, *t)).collect()
 }
 
+/// `material` with Λ corrected for the decay measurement's r(0) (unchanged when the fit had no
+/// flat decay charge): the material the charging curves of `fit` were computed with.
+pub fn corrected_material(material: &Material, fit: &ExcitationFit) -> Material {
+    match &fit.decay_state {
+        Some(d) => scale_lambda(material, &d.lambda_factor),
+        None => material.clone(),
+    }
+}
+
 /// The material with the fitted k_e written in: measured bands get the fit, unmeasured bands
-/// keep an existing value or 0.
+/// keep an existing value or 0; Λ corrected as [`corrected_material`].
 pub fn apply_excitation(material: &Material, fit: &ExcitationFit) -> Material {
     let nb = material.bands.len();
-    let mut m = material.clone();
+    let mut m = corrected_material(material, fit);
     for (i, st) in m.states.iter_mut().enumerate() {
         let mut k = st.k_e.clone().unwrap_or_else(|| vec![0.0; nb]);
         for b in &fit.bands {

@@ -13,6 +13,7 @@
 //! No colour-science counterpart exists. The paper's Eq. 4 writes k_ε for k_r and Eq. 6 sums from
 //! i = 0; both are read as k_r and i = 1 here.
 
+pub mod charging;
 pub mod decay;
 pub mod design;
 pub mod excitation;
@@ -21,6 +22,7 @@ pub mod material;
 pub mod simulate;
 pub mod synth;
 
+pub use charging::DecayCharging;
 pub use decay::{
     band_spectrum, fit_decay, reradiation_functions, reradiation_functions_rgb, AmplitudeModel,
     Candidate, DecayCurve, DecayFit, DecayFitOptions, DecayFlag, DecayState, StatesChoice,

@@ -3,9 +3,12 @@
 //! [`decay_curve`] gives one curve; [`DecayFrames`] renders whole frames (uniform, or two halves:
 //! the material and its [`two_state_variant`]) with per-pixel shot + read noise.
 //!
-//! Charging uses a flat irradiance with |E| = 1 over the bands (the paper's normalisation,
-//! §4.6). Materials without excitation rates (Table 1's decay-only rows) are assumed saturated
-//! at switch-off, r_i = 1, as the paper assumes for its decay measurements (§4.4).
+//! Charging follows a [`DecayCharging`] protocol: flat light over the bands (|E| given, the
+//! paper's normalisation, §4.6) for a given time from dark, or saturated (r_i = 1 at switch-off,
+//! as the paper assumes for its decay measurements, §4.4). [`decay_curve`] and
+//! [`DecayFrames::new`] keep the older reading of [`DecaySeriesSpec::charge_s`] (|E| = 1;
+//! 0 = saturated); [`decay_curve_charged`] and [`DecayFrames::new_charged`] take the protocol.
+//! A flat charge of a material without excitation rates is refused (its state is unknown).
 //!
 //! Noise, per sample: σ_t = √((ν·max_c Y_c(t))² + (10⁻³ ν·max Y)²) — relative (shot-like) noise
 //! ν at the sample's brightest channel plus a read-noise floor — Gaussian, shared by the
@@ -14,13 +17,16 @@
 
 use crate::error::{Error, Result};
 
+use super::charging::DecayCharging;
 use super::material::Material;
-use super::simulate::{final_state, window_integrals, BandCamera, Segment};
+use super::simulate::{window_integrals, BandCamera, Segment};
 
 /// Parameters of a synthetic decay series.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DecaySeriesSpec {
-    /// Charging time in s before switch-off.
+    /// Charging time in s before switch-off under flat light |E| = 1, read by [`decay_curve`]
+    /// and [`DecayFrames::new`] (0 there means saturated; materials without k_e are saturated).
+    /// Ignored by [`decay_curve_charged`] and [`DecayFrames::new_charged`].
     pub charge_s: f64,
     /// Number of frames.
     pub frames: usize,
@@ -47,8 +53,10 @@ pub struct SyntheticCurve {
     pub sigma: Vec<f64>,
     /// Concentrations at switch-off.
     pub r0: Vec<f64>,
-    /// Whether r0 was assumed (material without k_e) rather than simulated.
+    /// Whether r0 = 1 was set (saturated protocol) rather than simulated.
     pub saturation_assumed: bool,
+    /// The charging protocol that produced r0.
+    pub charging: DecayCharging,
 }
 
 /// Deterministic Gaussian generator: the capture module's SplitMix64 + Box–Muller generator,
@@ -75,11 +83,45 @@ impl Gaussian {
     }
 }
 
-/// Renders a synthetic decay curve of `material` seen by `camera`.
+/// The protocol [`decay_curve`] reads from `spec.charge_s`: flat |E| = 1 for that time, or
+/// saturated when it is 0 or the material has no excitation rates.
+pub fn legacy_charging(material: &Material, spec: &DecaySeriesSpec) -> DecayCharging {
+    if !material.has_excitation() || spec.charge_s == 0.0 {
+        DecayCharging::Saturated
+    } else {
+        DecayCharging::Flat {
+            duration_s: spec.charge_s,
+            irradiance: 1.0,
+        }
+    }
+}
+
+/// Renders a synthetic decay curve of `material` seen by `camera`, charged as
+/// [`legacy_charging`] reads `spec.charge_s`.
 pub fn decay_curve(
     material: &Material,
     camera: &BandCamera,
     spec: &DecaySeriesSpec,
+) -> Result<SyntheticCurve> {
+    if !(spec.charge_s.is_finite() && spec.charge_s >= 0.0) {
+        return Err(Error::invalid(
+            "charge",
+            format!("{} s; expected ≥ 0", spec.charge_s),
+        ));
+    }
+    decay_curve_charged(material, camera, spec, &legacy_charging(material, spec))
+}
+
+/// Renders a synthetic decay curve of `material` seen by `camera` after `charging`.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] for bad frame settings, a bad protocol, or a flat charge of a
+/// material without k_e.
+pub fn decay_curve_charged(
+    material: &Material,
+    camera: &BandCamera,
+    spec: &DecaySeriesSpec,
+    charging: &DecayCharging,
 ) -> Result<SyntheticCurve> {
     material.validate()?;
     if spec.frames < 3 || spec.frames > 1_000_000 {
@@ -108,28 +150,15 @@ pub fn decay_curve(
             format!("{}; expected ≥ 0", spec.noise),
         ));
     }
-    if !(spec.charge_s.is_finite() && spec.charge_s >= 0.0) {
+    if *charging == DecayCharging::Unknown {
         return Err(Error::invalid(
-            "charge",
-            format!("{} s; expected ≥ 0", spec.charge_s),
+            "charging",
+            "a synthetic series needs a known protocol (saturated or a flat charge)",
         ));
     }
     let nb = material.bands.len();
-    let ns = material.states.len();
-    let saturation_assumed = !material.has_excitation() || spec.charge_s == 0.0;
-    let r0 = if saturation_assumed {
-        vec![1.0; ns]
-    } else {
-        let e = 1.0 / (nb as f64).sqrt();
-        final_state(
-            material,
-            &[Segment {
-                duration_s: spec.charge_s,
-                irradiance: vec![e; nb],
-            }],
-            &vec![0.0; ns],
-        )?
-    };
+    let saturation_assumed = charging.assumes_saturation();
+    let r0 = charging.state_at_switch_off(material)?;
     // after switch-off: a dark history starting from r0
     let dark = [Segment {
         duration_s: f64::MAX / 4.0,
@@ -173,6 +202,7 @@ pub fn decay_curve(
         sigma,
         r0,
         saturation_assumed,
+        charging: charging.clone(),
     })
 }
 
@@ -249,6 +279,28 @@ impl DecayFrames {
         width: usize,
         height: usize,
     ) -> Result<Self> {
+        if !(spec.charge_s.is_finite() && spec.charge_s >= 0.0) {
+            return Err(Error::invalid(
+                "charge",
+                format!("{} s; expected ≥ 0", spec.charge_s),
+            ));
+        }
+        let charging = legacy_charging(material, spec);
+        Self::new_charged(material, layout, camera, spec, &charging, (width, height))
+    }
+
+    /// As [`DecayFrames::new`], charged by `charging` (both halves alike).
+    ///
+    /// # Errors
+    /// As [`DecayFrames::new`] and [`decay_curve_charged`].
+    pub fn new_charged(
+        material: &Material,
+        layout: FrameLayout,
+        camera: &BandCamera,
+        spec: &DecaySeriesSpec,
+        charging: &DecayCharging,
+        (width, height): (usize, usize),
+    ) -> Result<Self> {
         if width < 2 || height < 1 || width.saturating_mul(height) > 64_000_000 {
             return Err(Error::invalid(
                 "--size",
@@ -259,10 +311,15 @@ impl DecayFrames {
             noise: 0.0,
             ..spec.clone()
         };
-        let mut curves = vec![decay_curve(material, camera, &clean_spec)?];
+        let mut curves = vec![decay_curve_charged(
+            material,
+            camera,
+            &clean_spec,
+            charging,
+        )?];
         if layout == FrameLayout::Halves {
             let v = two_state_variant(material)?;
-            curves.push(decay_curve(&v, camera, &clean_spec)?);
+            curves.push(decay_curve_charged(&v, camera, &clean_spec, charging)?);
         }
         let max_y = curves
             .iter()

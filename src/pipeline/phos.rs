@@ -19,12 +19,12 @@ use crate::capture::{PhotoSeries, Roi};
 use crate::error::{ensure_finite, Error, Result};
 use crate::io::image::encode_tiff16;
 use crate::io::maps::{rgb_map_tiff, scalar_map_tiff};
-use crate::io::phos_formats::{BatchCsv, BatchResultRow, CurveCsv, SigmaColumn};
+use crate::io::phos_formats::{BatchCsv, BatchResultRow, ChargingJson, CurveCsv, SigmaColumn};
 use crate::io::series::{charging_manifest_csv, BandRoi, BandRois};
 use crate::phosphor::design::{Design, DesignStage, Keyframe};
 use crate::phosphor::excitation::{
-    apply_excitation, fit_excitation, ChargingSample, ExcitationFit, ExcitationOptions,
-    SATURATION_MIN,
+    apply_excitation, corrected_material, fit_excitation, ChargingSample, ExcitationFit,
+    ExcitationOptions, SATURATION_MIN,
 };
 use crate::phosphor::maps::{PixelMaps, MAP_STATES};
 use crate::phosphor::synth::{
@@ -32,7 +32,7 @@ use crate::phosphor::synth::{
 };
 use crate::phosphor::{
     band_spectrum, reradiation_functions, reradiation_functions_rgb, simulate, BandCamera, BandSet,
-    DecayCurve, DecayFit, Integrator, Material, Segment, Simulation,
+    DecayCharging, DecayCurve, DecayFit, Integrator, Material, Segment, Simulation,
 };
 use crate::phosphor::{fit_decay, DecayFitOptions};
 use crate::preset::phosphor::{decay_flags_text, DecayFitRecord, LambdaCameraScale};
@@ -176,6 +176,94 @@ pub fn decay_preset(
         states,
         record,
     })
+}
+
+/// The charging flags of `phos fit-decay` (`--saturated`, `--charge-s`, `--charge-irradiance`,
+/// `--charging FILE.json`).
+#[derive(Debug, Clone, Default)]
+pub struct ChargingFlags {
+    /// `--saturated`.
+    pub saturated: bool,
+    /// `--charge-s`.
+    pub charge_s: Option<f64>,
+    /// `--charge-irradiance`.
+    pub charge_irradiance: Option<f64>,
+    /// `--charging FILE.json`.
+    pub file: Option<std::path::PathBuf>,
+}
+
+/// Where the charging protocol of a decay fit came from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ChargingOrigin {
+    /// The flags.
+    Flags,
+    /// A `charging.json` file (given or found beside the input).
+    File(std::path::PathBuf),
+    /// Nothing recorded.
+    Unknown,
+}
+
+/// The charging protocol of the decay measurement in `input` (a curve CSV or a series): the
+/// flags, else `--charging FILE`, else `charging.json` beside the input, else unknown.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] naming the flag for contradictory flags or a charge that is not
+/// > 0; errors of [`ChargingJson::read`] for a bad file.
+pub fn decay_charging_for(
+    input: &std::path::Path,
+    flags: &ChargingFlags,
+) -> Result<(DecayCharging, ChargingOrigin)> {
+    let given = flags.saturated || flags.charge_s.is_some() || flags.charge_irradiance.is_some();
+    if given && flags.file.is_some() {
+        return Err(Error::invalid(
+            "--charging",
+            "give the charging protocol either as a file or with --saturated / --charge-s, not both",
+        ));
+    }
+    if flags.saturated && (flags.charge_s.is_some() || flags.charge_irradiance.is_some()) {
+        return Err(Error::invalid(
+            "--saturated",
+            "a saturated sample has no charging time or irradiance; drop --charge-s/--charge-irradiance",
+        ));
+    }
+    if flags.saturated {
+        return Ok((DecayCharging::Saturated, ChargingOrigin::Flags));
+    }
+    if let Some(t) = flags.charge_s {
+        let c = DecayCharging::Flat {
+            duration_s: t,
+            irradiance: flags.charge_irradiance.unwrap_or(1.0),
+        };
+        if !(t.is_finite() && t > 0.0) {
+            return Err(Error::invalid(
+                "--charge-s",
+                format!("{t}; expected a charging time > 0 s (a sample that was not charged does not glow; for r = 1 at switch-off give --saturated)"),
+            ));
+        }
+        c.validate()
+            .map_err(|e| Error::invalid("--charge-irradiance", e.to_string()))?;
+        return Ok((c, ChargingOrigin::Flags));
+    }
+    if flags.charge_irradiance.is_some() {
+        return Err(Error::invalid(
+            "--charge-irradiance",
+            "needs --charge-s (the charging time under that light)",
+        ));
+    }
+    let file = flags.file.clone().or_else(|| ChargingJson::beside(input));
+    match file {
+        Some(f) => Ok((ChargingJson::read(&f)?.charging, ChargingOrigin::File(f))),
+        None => Ok((DecayCharging::Unknown, ChargingOrigin::Unknown)),
+    }
+}
+
+/// The `assumption` text of a decay-fit record under `charging`.
+pub fn charging_assumption(charging: &DecayCharging) -> String {
+    match charging {
+        DecayCharging::Saturated => "saturation at switch-off (r_i(0) = 1, Nalbach et al. 2017 §4.4): lambda_i = a_i * spectrum / k_r,i".into(),
+        DecayCharging::Flat { .. } => format!("{}: lambda here is the apparent lambda_i * r_i(0) = a_i * spectrum / k_r,i; r_i(0) needs k_e, so phos fit-excitation fits both and divides lambda by r_i(0)", charging.describe()),
+        DecayCharging::Unknown => "UNKNOWN charging protocol, saturation at switch-off assumed (r_i(0) = 1): lambda_i = a_i * spectrum / k_r,i is only a lower bound (lambda_i * r_i(0)); rerun phos fit-decay with --saturated, --charge-s/--charge-irradiance or --charging FILE.json".into(),
+    }
 }
 
 /// The mean curve of `roi` over a photo series (relative radiance), σ of each sample the
@@ -433,7 +521,8 @@ pub fn synth_curve_manifest(
         "rates_per_s": material.states.iter().map(|s| s.k_r_per_s).collect::<Vec<_>>(),
         "r_at_switch_off": c.r0,
         "saturation_assumed": c.saturation_assumed,
-        "charge_s": spec.charge_s, "frames": spec.frames, "interval_s": spec.interval_s,
+        "charging": c.charging, "charging_file": crate::io::phos_formats::CHARGING_SIDECAR,
+        "frames": spec.frames, "interval_s": spec.interval_s,
         "exposure_s": spec.exposure_s, "noise": spec.noise, "seed": spec.seed,
         "time_s": "start of each exposure window after switch-off; values are window means",
         "curve": "curve.csv",
@@ -478,7 +567,8 @@ pub fn synth_frames_truth(
         "layout": match layout { FrameLayout::Uniform => "uniform", FrameLayout::Halves => "halves: x < width/2 is regions[0], the rest regions[1]" },
         "size": [fr.width, fr.height],
         "regions": regions,
-        "charge_s": spec.charge_s, "frames": spec.frames, "interval_s": spec.interval_s,
+        "charging": fr.curves[0].charging, "charging_file": crate::io::phos_formats::CHARGING_SIDECAR,
+        "frames": spec.frames, "interval_s": spec.interval_s,
         "exposure_s": spec.exposure_s, "iso": 100, "f_number": 1,
         "noise": spec.noise, "seed": spec.seed,
         "gain": fr.gain,
@@ -712,6 +802,7 @@ pub fn excitation(
     }
     let fit = fit_excitation(&material, camera, sources, data, opts)?;
     let updated = apply_excitation(&material, &fit);
+    let material = corrected_material(&material, &fit);
     let k_e: Vec<f64> = updated
         .states
         .iter()
@@ -761,6 +852,21 @@ pub fn excitation_report(
     if let Some(obj) = report.as_object_mut() {
         if let Some(sr) = series {
             obj.insert("series".into(), sr);
+        }
+        if let Some(d) = &fit.decay_state {
+            obj.insert(
+                "decay_charging".into(),
+                serde_json::json!({
+                    "protocol": d.charging,
+                    "description": d.charging.describe(),
+                    "r_at_switch_off": d.r0,
+                    "lambda_factor": d.lambda_factor,
+                    "self_consistent_r": d.roots,
+                    "joint_iterations": d.iterations,
+                    "joint_converged": d.converged,
+                    "note": "the decay fit's Λ is Λ·r(0) of its charge; r(0) follows from k_e and the protocol (Eq. 1), so k_e and r(0) were fitted together over all bands and Λ divided by r(0); k_e_sigma includes that coupling",
+                }),
+            );
         }
         if let Some(s) = r.lambda_scale {
             obj.insert(

@@ -126,6 +126,11 @@ pub struct DecayFitRecord {
     pub background: Option<Vec<f64>>,
     /// The candidate models (BIC over the number of states).
     pub candidates: serde_json::Value,
+    /// How the sample was charged before switch-off (`phos fit-decay --saturated`,
+    /// `--charge-s`/`--charge-irradiance` or `charging.json`); absent in older presets, which
+    /// assumed saturation. `phos fit-excitation` turns a flat charge into r(0) once k_e is known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub charging: Option<crate::phosphor::DecayCharging>,
     /// What the report must say about the fit.
     pub flags: serde_json::Value,
     /// The Λ camera scale (with `--spectrum` and an RGB curve).
@@ -172,6 +177,7 @@ impl DecayFitRecord {
             assumption: "saturation at switch-off (r_i(0) = 1, Nalbach et al. 2017 §4.4): lambda_i = a_i * spectrum / k_r,i".into(),
             background: fit.background.clone(),
             candidates: json(&fit.candidates),
+            charging: None,
             flags: json(&fit.flags),
             lambda_camera_scale: None,
             model: match fit.amplitudes {
@@ -362,6 +368,7 @@ mod tests {
             assumption: "a".into(),
             background: None,
             candidates: serde_json::json!([{"n_states": 1, "bic": -3.5}]),
+            charging: None,
             flags: serde_json::json!([]),
             lambda_camera_scale: Some(LambdaCameraScale {
                 camera: "cam.csv".into(),

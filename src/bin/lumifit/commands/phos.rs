@@ -133,6 +133,22 @@ pub struct FitDecayArgs {
     /// Material name written into the preset.
     #[arg(long)]
     pub name: Option<String>,
+    /// The sample was saturated at switch-off (r = 1, a long charge under a strong lamp): Λ is
+    /// exact. Recorded in the preset.
+    #[arg(long, conflicts_with_all = ["charge_s", "charge_irradiance", "charging"])]
+    pub saturated: bool,
+    /// The sample was charged from dark for this many seconds under flat light before
+    /// switch-off (> 0). Λ is then Λ·r(0), which `phos fit-excitation` corrects once k_e is known.
+    #[arg(long, conflicts_with = "charging")]
+    pub charge_s: Option<f64>,
+    /// With --charge-s: |E| of the flat charging light in the units of k_e [default: 1, Table 1's].
+    #[arg(long, requires = "charge_s")]
+    pub charge_irradiance: Option<f64>,
+    /// The charging protocol as a `charging.json` file (`lumifit.charging/1`). Without any
+    /// charging flag, `charging.json` beside the curve or manifest is read (synth phos-decay writes
+    /// one); with none, saturation is assumed with a warning and recorded as unknown.
+    #[arg(long)]
+    pub charging: Option<PathBuf>,
     /// Output: material preset JSON (curve, --roi), CSV (--batch) or directory (--per-pixel).
     #[arg(long)]
     pub out: PathBuf,
@@ -257,6 +273,16 @@ fn options(a: &FitDecayArgs) -> Result<DecayFitOptions> {
 
 fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
     let opts = options(a)?;
+    let charging_given = a.saturated
+        || a.charge_s.is_some()
+        || a.charge_irradiance.is_some()
+        || a.charging.is_some();
+    if charging_given && (a.per_pixel || a.batch.is_some()) {
+        bail!(
+            "--saturated/--charge-s/--charge-irradiance/--charging apply to one curve (a curve CSV \
+             or --roi), whose preset records the protocol; not to --batch or --per-pixel"
+        );
+    }
     if a.per_pixel || a.roi.is_some() || a.series.is_some() {
         let series = match (&a.series, &a.curve) {
             (Some(_), Some(_)) => {
@@ -289,7 +315,10 @@ fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
 /// darks), the spectrum and camera; then `--out` and `--plot`.
 fn fit_outputs(inputs: &[PathBuf], a: &FitDecayArgs) -> Result<Outputs> {
     let mut out = Outputs::new();
-    out.inputs(inputs).inputs(&a.spectrum).inputs(&a.camera);
+    out.inputs(inputs)
+        .inputs(&a.spectrum)
+        .inputs(&a.camera)
+        .inputs(&a.charging);
     out.declare("--out", &a.out)?;
     declare_plot(&mut out, &a.plot)?;
     Ok(out)
@@ -364,6 +393,24 @@ fn fit_and_write(
         label: &label,
     };
     let mut dp = pipe::decay_preset(&fit, &curve, &source, spectrum, camera)?;
+    let (charging, origin) = pipe::decay_charging_for(path, &charging_flags(a))?;
+    match &origin {
+        pipe::ChargingOrigin::File(f) => eprintln!(
+            "note: charging protocol from {}: {}",
+            f.display(),
+            charging.describe()
+        ),
+        pipe::ChargingOrigin::Unknown => eprintln!(
+            "WARNING: {}: the charging protocol is unknown, so saturation at switch-off (r = 1) \
+             is assumed and Λ may be far too low (a sample charged 90 min under |E| = 1 light \
+             can sit at r = 0.18); give --saturated, --charge-s S [--charge-irradiance E] or \
+             --charging FILE.json. The assumption is recorded in the preset.",
+            path.display()
+        ),
+        pipe::ChargingOrigin::Flags => {}
+    }
+    dp.record.assumption = pipe::charging_assumption(&charging);
+    dp.record.charging = Some(charging);
     if let Some(r) = &roi {
         dp.record.roi = Some(r.clone());
         dp.record.series = Some(source.clone());
@@ -375,6 +422,9 @@ fn fit_and_write(
         files.push(path);
     }
     files.extend(a.spectrum.as_deref());
+    if let pipe::ChargingOrigin::File(f) = &origin {
+        files.push(f);
+    }
     if a.spectrum.is_some() {
         files.extend(a.camera.as_deref());
     }
@@ -395,6 +445,15 @@ fn fit_and_write(
     }
     out.commit()?;
     super::emit(&serde_json::to_string_pretty(&dp.record)?)
+}
+
+fn charging_flags(a: &FitDecayArgs) -> pipe::ChargingFlags {
+    pipe::ChargingFlags {
+        saturated: a.saturated,
+        charge_s: a.charge_s,
+        charge_irradiance: a.charge_irradiance,
+        file: a.charging.clone(),
+    }
 }
 
 fn batch(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {

@@ -14,7 +14,7 @@ use lumifit::io::series::{charging_series_inputs, load_charging_series, RoiSourc
 use lumifit::io::Outputs;
 use lumifit::phosphor::design::{design_from_keyframes, DesignOptions};
 use lumifit::phosphor::excitation::{synth_charging, ExcitationOptions, StateSharing};
-use lumifit::phosphor::{BandSet, Material};
+use lumifit::phosphor::{BandSet, DecayCharging, Material};
 use lumifit::pipeline::phos as pipe;
 use lumifit::plot::phosphor_sim::{design_chart_png, DesignChart};
 use lumifit::preset::phosphor::{
@@ -182,8 +182,13 @@ fn wavelength_ranges(m: &Material) -> Result<&[[f64; 2]]> {
     match &m.bands {
         BandSet::RangesNm(r) => Ok(r),
         BandSet::Rgb => bail!(
-            "material '{}' has RGB bands; charging experiments need wavelength bands \
-             ([[lo_nm, hi_nm], …]) to integrate the source spectra over",
+            "material '{}' has RGB bands (a `phos fit-decay` preset made without --spectrum); \
+             charging experiments need wavelength bands ([[lo_nm, hi_nm], …]) to integrate the \
+             source spectra over. The missing measurement is the glow's emission spectrum: \
+             photograph the glowing sample through the LVF and recover it (`lumifit spectrum \
+             recover GLOW.tiff --bands lvf.json --out emission.csv`), then refit the decay with \
+             `lumifit phos fit-decay CURVE --spectrum emission.csv --bands 8 [--camera cam.csv] \
+             --out material.json` (docs/phosphorescence.md, \"From RGB bands to wavelength bands\")",
             m.name
         ),
     }
@@ -238,7 +243,9 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
     bands.dedup();
     let sources = SourceSpectraCsv::read(&a.source)?.unit_irradiance(&ranges, &bands)?;
     let camera = read_band_camera(&a.camera, &resolved.material.bands)?;
+    let decay_charging = decay_charging_of(decay.as_ref(), &a.material);
     let opts = ExcitationOptions {
+        decay_charging,
         switch_off_delay_s: a.switch_off_delay_s,
         sharing: match a.states {
             SharingArg::Auto => StateSharing::Auto,
@@ -277,7 +284,8 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
         base,
         &r.updated,
         &ranges,
-        r.rescaled.is_some(),
+        // Λ changed: rescaled to the camera, or divided by the decay measurement's r(0).
+        r.rescaled.is_some() || r.fit.decay_state.is_some(),
         provenance,
         report.clone(),
     );
@@ -289,6 +297,27 @@ fn fit_cmd(a: &FitExcitationArgs) -> Result<()> {
     }
     out.commit()?;
     super::emit(&serde_json::to_string_pretty(&report)?)
+}
+
+/// The charging protocol of the decay measurement behind the preset's Λ: a material without a
+/// decay-fit record (Table 1, designed) has exact Λ; a record without a protocol (older
+/// presets) or with an unknown one is read as saturated, with a warning.
+fn decay_charging_of(decay: Option<&DecayFitRecord>, material: &str) -> DecayCharging {
+    let Some(d) = decay else {
+        return DecayCharging::Saturated;
+    };
+    match &d.charging {
+        Some(DecayCharging::Unknown) | None => {
+            eprintln!(
+                "WARNING: {material}: the decay fit does not know how the sample was charged, so its \
+                 Λ assumes saturation (r = 1) at switch-off; if the sample was not saturated, Λ is \
+                 too low and k_e comes out too high. Refit the decay with phos fit-decay \
+                 --saturated or --charge-s S [--charge-irradiance E]."
+            );
+            DecayCharging::Saturated
+        }
+        Some(c) => c.clone(),
+    }
 }
 
 fn parse_times(s: &str) -> Result<Vec<f64>> {

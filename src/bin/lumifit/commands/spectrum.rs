@@ -14,7 +14,9 @@ use lumifit::pipeline::acquisition::{
     parse_recovery_grid, recover_spectrum, recovery_csv, recovery_plot_png, recovery_summary,
     RecoverInputs,
 };
-use lumifit::recovery::RecoveryOptions;
+use lumifit::preset::phosphor::provenance_of_files;
+use lumifit::preset::{to_json_string, MaterialPreset, Provenance, ReflectanceSection};
+use lumifit::recovery::{Recovered, RecoveryOptions};
 
 use super::emit;
 
@@ -93,6 +95,14 @@ pub struct RecoverArgs {
     /// Plot PNG: recovered spectrum ± 2σ (with --compare) and the resolution per wavelength.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Reflectance mode (--illuminant or --white): also write a material preset
+    /// (`lumifit.material/1`) with the recovered reflectance as its `reflectance` section (the
+    /// per-wavelength σ beside it as `std`), validated before it is written.
+    #[arg(long)]
+    pub preset: Option<PathBuf>,
+    /// Material name in the --preset (default: the photo's file stem).
+    #[arg(long, requires = "preset")]
+    pub name: Option<String>,
 }
 
 /// Runs a `spectrum` subcommand.
@@ -118,6 +128,13 @@ fn recover_cmd(a: &RecoverArgs) -> Result<()> {
     if !(a.exposure > 0.0) || !a.exposure.is_finite() {
         bail!("--exposure: {}; expected a finite value > 0", a.exposure);
     }
+    if a.preset.is_some() && a.illuminant.is_none() && a.white.is_none() {
+        bail!(
+            "--preset writes a reflectance preset, but without --illuminant or --white the \
+             recovered spectrum is the light itself; give the illuminant (--illuminant NAME|CSV) \
+             or a white reference capture (--white FILE) to recover a reflectance factor"
+        );
+    }
     let inputs = RecoverInputs {
         image: a.image.clone(),
         readings: a.readings.clone(),
@@ -142,6 +159,7 @@ fn recover_cmd(a: &RecoverArgs) -> Result<()> {
         ("--dump-system", &a.dump_system),
         ("--summary", &a.summary),
         ("--plot", &a.plot),
+        ("--preset", &a.preset),
     ] {
         if let Some(p) = p {
             out.declare(flag, p)?;
@@ -164,6 +182,46 @@ fn recover_cmd(a: &RecoverArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         out.stage(p, &recovery_plot_png(&outcome)?)?;
     }
+    if let Some(p) = &a.preset {
+        let name = a.name.clone().unwrap_or_else(|| {
+            a.image
+                .as_ref()
+                .or(a.readings.as_ref())
+                .and_then(|f| f.file_stem())
+                .map_or("recovered".into(), |s| s.to_string_lossy().to_string())
+        });
+        let provenance = provenance_of_files("lumifit spectrum recover", &inputs.files())?
+            .with_fit_quality(serde_json::json!({
+                "regularisation": outcome.rec.lambda,
+                "mode": outcome.mode,
+            }));
+        let preset = reflectance_preset(&outcome.rec, &name, provenance, &outcome.mode);
+        out.stage_text(p, &to_json_string(&preset)?)?;
+    }
     out.commit()?;
     emit(&text)
+}
+
+/// The reflectance preset of a recovery: the values on the grid, and beside them (open fields)
+/// σ per wavelength and what was recovered.
+fn reflectance_preset(
+    rec: &Recovered,
+    name: &str,
+    provenance: Provenance,
+    mode: &str,
+) -> MaterialPreset {
+    let mut section = ReflectanceSection::new(rec.wavelength_nm.clone(), rec.value.clone());
+    if rec.std.iter().all(|v| v.is_finite()) {
+        section
+            .extra
+            .insert("std".into(), serde_json::json!(rec.std));
+    }
+    section.extra.insert(
+        "source".into(),
+        serde_json::json!(format!("lumifit spectrum recover ({mode}) through the LVF")),
+    );
+    MaterialPreset {
+        reflectance: Some(section),
+        ..MaterialPreset::new(name, provenance)
+    }
 }

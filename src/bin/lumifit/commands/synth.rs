@@ -1,15 +1,16 @@
 //! `lumifit synth …` (synthetic data): phosphorescent decay series from the exact simulation —
-//! 16-bit TIFF frames with a manifest the series loader reads, or (`--curve-only`) one curve CSV.
+//! 16-bit TIFF frames with a manifest the series loader reads, or (`--curve-only`) one curve CSV;
+//! the charging protocol goes into `charging.json` beside them (read by `phos fit-decay`).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use lumifit::io::phos_formats::read_band_camera;
+use lumifit::io::phos_formats::{read_band_camera, ChargingJson, CHARGING_SIDECAR};
 use lumifit::io::series::manifest_csv;
 use lumifit::io::Outputs;
-use lumifit::phosphor::synth::{decay_curve, DecayFrames, DecaySeriesSpec, FrameLayout};
-use lumifit::phosphor::{BandCamera, Material};
+use lumifit::phosphor::synth::{decay_curve_charged, DecayFrames, DecaySeriesSpec, FrameLayout};
+use lumifit::phosphor::{BandCamera, DecayCharging, Material};
 use lumifit::pipeline::phos as pipe;
 use rayon::prelude::*;
 
@@ -28,9 +29,18 @@ pub struct PhosDecayArgs {
     /// A Table 1 material name or a material preset JSON file.
     #[arg(long)]
     pub material: String,
-    /// Charging time in s under flat light (|E| = 1) before switch-off.
-    #[arg(long, default_value_t = 5400.0)]
-    pub charge_s: f64,
+    /// Charging time in s from dark under flat light (|E| = --charge-irradiance over the
+    /// material's bands) before switch-off [default: 5400]; recorded in charging.json beside the
+    /// output, which `phos fit-decay` reads. 0 is a deprecated spelling of --saturated.
+    #[arg(long, conflicts_with = "saturated")]
+    pub charge_s: Option<f64>,
+    /// |E| of the flat charging light, in the units of k_e (Table 1: 1).
+    #[arg(long, default_value_t = 1.0, conflicts_with = "saturated")]
+    pub charge_irradiance: f64,
+    /// Saturated at switch-off (r = 1, as after a long charge under a strong lamp) instead of a
+    /// simulated charge; the default for materials without excitation rates.
+    #[arg(long)]
+    pub saturated: bool,
     /// Number of frames.
     #[arg(long, default_value_t = 37)]
     pub frames: usize,
@@ -56,7 +66,8 @@ pub struct PhosDecayArgs {
     /// Seed of the noise generator.
     #[arg(long)]
     pub seed: u64,
-    /// Write only the curve CSV (`time_s,r,g,b,std`) into the output directory.
+    /// Write only the curve CSV (`time_s,r,g,b,std`), manifest.json and charging.json into the
+    /// output directory.
     #[arg(long)]
     pub curve_only: bool,
     /// Output directory.
@@ -109,16 +120,24 @@ fn phos_decay(a: &PhosDecayArgs) -> Result<()> {
         Some(p) => read_band_camera(p, &material.bands)?,
         None => BandCamera::for_bands(&material.bands, None)?,
     };
+    let charging = charging_of(a, &material)?;
     let spec = DecaySeriesSpec {
-        charge_s: a.charge_s,
+        charge_s: match charging {
+            DecayCharging::Flat { duration_s, .. } => duration_s,
+            _ => 0.0,
+        },
         frames: a.frames,
         interval_s: a.interval_s,
         exposure_s: a.exposure_s.unwrap_or(a.interval_s / 5.0),
         noise: a.noise,
         seed: a.seed,
     };
+    out.stage_text(
+        a.out.join(CHARGING_SIDECAR),
+        &ChargingJson::new(charging.clone()).to_json(),
+    )?;
     let Some((w, h)) = size else {
-        let c = decay_curve(&material, &camera, &spec)?;
+        let c = decay_curve_charged(&material, &camera, &spec, &charging)?;
         let path = a.out.join("curve.csv");
         out.stage_text(&path, &pipe::synth_curve_csv(&c).to_csv())?;
         let manifest = pipe::synth_curve_manifest(&material, &c, &spec);
@@ -127,9 +146,47 @@ fn phos_decay(a: &PhosDecayArgs) -> Result<()> {
             &serde_json::to_string_pretty(&manifest)?,
         )?;
         out.commit()?;
-        return super::emit(&format!("wrote {} and manifest.json", path.display()));
+        return super::emit(&format!(
+            "wrote {}, manifest.json and {CHARGING_SIDECAR} ({})",
+            path.display(),
+            charging.describe()
+        ));
     };
-    frames(out, a, &material, &camera, &spec, (w, h))
+    frames(out, a, &material, &camera, &spec, &charging, (w, h))
+}
+
+/// The charging protocol from the flags: --saturated, or --charge-s (default 5400 s) at
+/// --charge-irradiance; materials without k_e are saturated unless a charge is asked for.
+fn charging_of(a: &PhosDecayArgs, material: &Material) -> Result<DecayCharging> {
+    if a.saturated {
+        return Ok(DecayCharging::Saturated);
+    }
+    match a.charge_s {
+        Some(t) if t == 0.0 => {
+            eprintln!(
+                "warning: --charge-s 0 is deprecated for --saturated (r = 1 at switch-off); \
+                 a sample that is not charged does not glow"
+            );
+            Ok(DecayCharging::Saturated)
+        }
+        None if !material.has_excitation() => {
+            eprintln!(
+                "note: '{}' has no excitation rates k_e; simulated saturated at switch-off \
+                 (--saturated)",
+                material.name
+            );
+            Ok(DecayCharging::Saturated)
+        }
+        t => {
+            let c = DecayCharging::Flat {
+                duration_s: t.unwrap_or(5400.0),
+                irradiance: a.charge_irradiance,
+            };
+            c.validate()
+                .map_err(|e| anyhow::anyhow!("--charge-s/--charge-irradiance: {e}"))?;
+            Ok(c)
+        }
+    }
 }
 
 fn frames(
@@ -138,13 +195,14 @@ fn frames(
     material: &Material,
     camera: &BandCamera,
     spec: &DecaySeriesSpec,
+    charging: &DecayCharging,
     (w, h): (usize, usize),
 ) -> Result<()> {
     let layout = match a.layout {
         LayoutArg::Uniform => FrameLayout::Uniform,
         LayoutArg::Halves => FrameLayout::Halves,
     };
-    let fr = DecayFrames::new(material, layout, camera, spec, w, h)?;
+    let fr = DecayFrames::new_charged(material, layout, camera, spec, charging, (w, h))?;
     let bar = progress_bar(
         fr.len() as u64,
         "rendering [{bar:30}] {pos}/{len} frames {elapsed}",
@@ -180,9 +238,10 @@ fn frames(
     )?;
     out.commit()?;
     super::emit(&format!(
-        "wrote {} frames {w}x{h} ({}), manifest.csv and truth.json to {}",
+        "wrote {} frames {w}x{h} ({}), manifest.csv, truth.json and {CHARGING_SIDECAR} ({}) to {}",
         fr.len(),
         a.size,
+        charging.describe(),
         a.out.display()
     ))
 }
