@@ -23,6 +23,8 @@ use lumifit::preset::to_json_string;
 pub use lumifit::preset::phosphor::resolve_material;
 
 /// Subcommands of `lumifit phos`.
+// Parsed once per run: the size of the fit-decay flags does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 pub enum PhosCommand {
     /// Simulate Eq. 1 under a piecewise-constant irradiance history; write the emission CSV.

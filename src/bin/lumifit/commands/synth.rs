@@ -162,7 +162,7 @@ fn charging_of(a: &PhosDecayArgs, material: &Material) -> Result<DecayCharging> 
         return Ok(DecayCharging::Saturated);
     }
     match a.charge_s {
-        Some(t) if t == 0.0 => {
+        Some(0.0) => {
             eprintln!(
                 "warning: --charge-s 0 is deprecated for --saturated (r = 1 at switch-off); \
                  a sample that is not charged does not glow"
