@@ -189,3 +189,187 @@ fn unknown_basis_and_method_names_exit_with_code_2_listing_the_accepted_ones() {
         &["lms"],
     );
 }
+
+/// A folder holding two copies of the synthetic matrix (`a.bfc`, `b.BFC`) and a text file that
+/// is not a matrix (ignored by the folder expansion).
+fn two_matrix_folder(dir: &Path) -> std::path::PathBuf {
+    let m = dir.join("matrices");
+    std::fs::create_dir(&m).unwrap();
+    std::fs::copy(synthetic(), m.join("a.bfc")).unwrap();
+    std::fs::copy(synthetic(), m.join("b.BFC")).unwrap();
+    std::fs::write(m.join("README.txt"), "not a matrix").unwrap();
+    m
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Every non-empty line of a `fluor` CSV table has `fields` comma-separated fields.
+fn assert_pure_csv(text: &str, header: &str, fields: usize) -> usize {
+    let mut lines = text.lines().filter(|l| !l.is_empty());
+    assert_eq!(lines.next(), Some(header), "{text}");
+    let rows: Vec<&str> = lines.collect();
+    for l in &rows {
+        assert_eq!(
+            l.split(',').count(),
+            fields,
+            "not a table row: '{l}' in\n{text}"
+        );
+        let v: f64 = l.rsplit(',').next().unwrap().parse().unwrap();
+        assert!(v.is_finite() && v >= 0.0, "{l}");
+    }
+    rows.len()
+}
+
+#[test]
+fn reduce_over_a_folder_writes_one_valid_preset_each_and_one_table_with_the_summary_on_stderr() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let m = two_matrix_folder(d);
+    let presets = d.join("presets");
+    let table = d.join("t.csv");
+    let o = lumifit(&[
+        "fluor",
+        "reduce",
+        s(&m),
+        "--out-dir",
+        s(&presets),
+        "--table",
+        s(&table),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let err = stderr(&o);
+    assert!(err.contains("a.json") && err.contains("b.json"), "{err}");
+    for name in ["a.json", "b.json"] {
+        let p = presets.join(name);
+        let v = lumifit(&["preset", "validate", s(&p)]);
+        assert!(v.status.success(), "{name}: {}", stderr(&v));
+        let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
+        assert!(j["fluorescence"].is_object(), "{j}");
+    }
+    let text = std::fs::read_to_string(&table).unwrap();
+    let n = assert_pure_csv(&text, "material,file,illuminant,method,delta_e00", 5);
+    assert_eq!(
+        n,
+        2 * 7,
+        "two matrices × seven default illuminants:\n{text}"
+    );
+}
+
+#[test]
+fn reduce_refuses_one_out_for_several_matrices_and_a_bad_matrix_in_a_batch_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let m = two_matrix_folder(d);
+    let out = d.join("one.json");
+    assert_rejected(
+        &lumifit(&["fluor", "reduce", s(&m), "--out", s(&out)]),
+        &["2 matrices", "--out-dir"],
+    );
+    assert!(!out.exists());
+    let text = std::fs::read_to_string(synthetic()).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines.remove(30);
+    write(&m, "c.bfc", lines.join("\n"));
+    let presets = d.join("presets");
+    assert_rejected(
+        &lumifit(&["fluor", "reduce", s(&m), "--out-dir", s(&presets)]),
+        &["c.bfc: line", "emission"],
+    );
+    assert!(!presets.exists(), "nothing written when one matrix is bad");
+    // Two matrices with the same stem would overwrite each other's preset.
+    let other = d.join("other");
+    std::fs::create_dir(&other).unwrap();
+    std::fs::copy(synthetic(), other.join("a.csv")).unwrap();
+    assert_rejected(
+        &lumifit(&[
+            "fluor",
+            "reduce",
+            s(&m.join("a.bfc")),
+            s(&other.join("a.csv")),
+            "--out-dir",
+            s(&presets),
+        ]),
+        &["a.json", "rename"],
+    );
+}
+
+#[test]
+fn eval_writes_a_pure_csv_table_and_presets_and_keeps_the_summary_on_stderr() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let m = two_matrix_folder(d);
+    // Standard output carries the table only.
+    let o = lumifit(&["fluor", "eval", s(&m)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let n = assert_pure_csv(
+        &String::from_utf8_lossy(&o.stdout),
+        "material,illuminant,method,delta_e00",
+        4,
+    );
+    assert_eq!(n, 2 * 7 * 5);
+    assert!(
+        stderr(&o).contains("summary over materials"),
+        "{}",
+        stderr(&o)
+    );
+    // --out and --out-dir: the table in the file, one preset per matrix, nothing on stdout.
+    let table = d.join("eval.csv");
+    let presets = d.join("p");
+    let o = lumifit(&[
+        "fluor",
+        "eval",
+        s(&m),
+        "--methods",
+        "dual-xyzu,dual-xyz",
+        "--out",
+        s(&table),
+        "--out-dir",
+        s(&presets),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+    let text = std::fs::read_to_string(&table).unwrap();
+    assert_eq!(
+        assert_pure_csv(&text, "material,illuminant,method,delta_e00", 4),
+        2 * 7 * 2
+    );
+    for name in ["a.json", "b.json"] {
+        let p = presets.join(name);
+        let v = lumifit(&["preset", "validate", s(&p)]);
+        assert!(v.status.success(), "{name}: {}", stderr(&v));
+        let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
+        // Reduced with the first of --methods.
+        let basis = &j["fluorescence"]["basis"]["name"];
+        assert_eq!(basis, "xyzu", "{name}: basis {basis}");
+        assert_eq!(j["fluorescence"]["method"], "dual");
+    }
+}
+
+#[test]
+fn sweep_and_select_write_to_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sweep = d.join("sweep.csv");
+    let o = lumifit(&["fluor", "sweep", &synthetic(), "--out", s(&sweep)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+    let text = std::fs::read_to_string(&sweep).unwrap();
+    assert!(text.starts_with("excitation_nm,method,X_ref"), "{text}");
+    assert!(text.lines().count() > 10);
+    let sel = d.join("select.json");
+    let o = lumifit(&["fluor", "select", &synthetic(), "--json", "--out", s(&sel)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&sel).unwrap()).unwrap();
+    assert_eq!(v["material"], "synthetic");
+    // An output that is the input is refused before any work.
+    let o = lumifit(&["fluor", "sweep", &synthetic(), "--out", &synthetic()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

@@ -55,9 +55,12 @@ pub struct CommonArgs {
 }
 
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("dest").required(true).args(["out", "out_dir"])))]
 pub struct ReduceArgs {
-    /// Donaldson matrix: BFC-450 file or CSV (header `emission_nm,<excitation nm>…`).
-    pub matrix: PathBuf,
+    /// Donaldson matrices: BFC-450 files or CSV (header `emission_nm,<excitation nm>…`), or
+    /// folders of them (every *.bfc / *.csv inside, sorted). Several need --out-dir.
+    #[arg(required = true)]
+    pub matrices: Vec<PathBuf>,
     /// Basis: xyz, xyzu, xyz7u or a basis CSV (`wavelength_nm,f1,…,fK`).
     #[arg(long, default_value = "xyz")]
     pub basis: String,
@@ -70,10 +73,18 @@ pub struct ReduceArgs {
     /// Illuminants of the ΔE00 table stored with the preset (names or SPD CSV files).
     #[arg(long, value_delimiter = ',', default_values_t = DEFAULT_ILLUMINANTS.map(String::from))]
     pub illuminants: Vec<String>,
-    /// Output material preset (JSON).
+    /// Output material preset (JSON), for one matrix.
     #[arg(long)]
-    pub out: PathBuf,
-    /// Also write a PNG of the Donaldson matrix, the reduced matrix and ΔE00 per illuminant.
+    pub out: Option<PathBuf>,
+    /// Output folder: one preset `<file stem>.json` per matrix (any number of matrices).
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
+    /// Also write the ΔE00 table of every matrix, CSV `material,file,illuminant,method,delta_e00`
+    /// (`-` for standard output; the summary then goes to standard error).
+    #[arg(long)]
+    pub table: Option<PathBuf>,
+    /// Also write a PNG of the Donaldson matrix, the reduced matrix and ΔE00 per illuminant (one
+    /// matrix only).
     #[arg(long)]
     pub plot: Option<PathBuf>,
     #[command(flatten)]
@@ -82,7 +93,7 @@ pub struct ReduceArgs {
 
 #[derive(Debug, Args)]
 pub struct EvalArgs {
-    /// Donaldson matrices (BFC-450 or CSV).
+    /// Donaldson matrices (BFC-450 or CSV), or folders of them (every *.bfc / *.csv inside).
     #[arg(required = true)]
     pub matrices: Vec<PathBuf>,
     /// Illuminants: CIE names or SPD CSV files.
@@ -94,6 +105,18 @@ pub struct EvalArgs {
     /// Print one JSON array of `{material, illuminant, method, delta_e00, xyz_reference, xyz_reduced}`.
     #[arg(long)]
     pub json: bool,
+    /// The table (CSV `material,illuminant,method,delta_e00`, or the JSON array with --json):
+    /// a file, or `-` for standard output. The summary (mean / max ΔE00 per method and
+    /// illuminant) always goes to standard error.
+    #[arg(long, default_value = "-")]
+    pub out: PathBuf,
+    /// Also write one material preset per matrix into this folder (`<file stem>.json`), reduced
+    /// with the first of --methods, its ΔE00 table under --illuminants inside.
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
+    /// RGB working space of the presets' 3×3 matrix (--out-dir): srgb, rec2020, acescg.
+    #[arg(long, default_value = "srgb", requires = "out_dir")]
+    pub rgb: String,
     /// Write a PNG: the first matrix, its reduced matrices and mean ΔE00 per illuminant and method.
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -117,6 +140,9 @@ pub struct SelectArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Output file for the table (or JSON); `-` is standard output.
+    #[arg(long, default_value = "-")]
+    pub out: PathBuf,
     #[command(flatten)]
     pub common: CommonArgs,
 }
@@ -131,6 +157,9 @@ pub struct SweepArgs {
     /// Report every n-th grid sample.
     #[arg(long, default_value_t = 5)]
     pub every: usize,
+    /// Output CSV; `-` is standard output.
+    #[arg(long, default_value = "-")]
+    pub out: PathBuf,
     #[command(flatten)]
     pub common: CommonArgs,
 }
@@ -213,47 +242,102 @@ fn register_common(out: &mut Outputs, illuminants: &[String], bases: &[&str]) {
     out.inputs(bases.iter().filter_map(|n| file_of(n)));
 }
 
-fn run_reduce(a: &ReduceArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    out.input(&a.matrix);
-    register_common(&mut out, &a.illuminants, &[&a.basis]);
-    out.declare("--out", &a.out)?;
-    if let Some(p) = &a.plot {
-        out.declare("--plot", p)?;
+/// The matrices named on the command line: files as given, folders expanded to their
+/// `*.bfc` / `*.csv` files (sorted by name).
+fn expand_matrices(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if !p.is_dir() {
+            out.push(p.clone());
+            continue;
+        }
+        let entries = std::fs::read_dir(p)
+            .map_err(|e| anyhow::anyhow!("{}: cannot list the folder: {e}", p.display()))?;
+        let mut found: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|f| {
+                f.is_file()
+                    && f.extension().is_some_and(|x| {
+                        x.eq_ignore_ascii_case("bfc") || x.eq_ignore_ascii_case("csv")
+                    })
+            })
+            .collect();
+        if found.is_empty() {
+            anyhow::bail!(
+                "{}: no Donaldson matrices in the folder; expected *.bfc or *.csv files",
+                p.display()
+            );
+        }
+        found.sort();
+        out.extend(found);
     }
-    let s = setup(&a.common)?;
-    let (d, bytes) = load_matrix(&a.matrix)?;
+    Ok(out)
+}
+
+/// `DIR/<stem>.json` for every matrix; two matrices with the same stem are refused.
+fn preset_paths(dir: &Path, matrices: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut seen = std::collections::HashMap::new();
+    let mut out = Vec::new();
+    for m in matrices {
+        let stem = m
+            .file_stem()
+            .map_or("matrix".into(), |s| s.to_string_lossy().to_string());
+        if let Some(prev) = seen.insert(stem.clone(), m.clone()) {
+            anyhow::bail!(
+                "--out-dir: {} and {} would both be written as {stem}.json; rename one",
+                prev.display(),
+                m.display()
+            );
+        }
+        out.push(dir.join(format!("{stem}.json")));
+    }
+    Ok(out)
+}
+
+/// One matrix reduced into a preset.
+struct ReducedPreset {
+    matrix: DonaldsonMatrix,
+    red: lumifit::fluor::reduce::Reduced,
+    rows: Vec<lumifit::fluor::evaluate::EvalRow>,
+    worst: f64,
+    json: String,
+}
+
+/// Reduces `path` with `method` and builds its preset (validated) with the ΔE00 table under
+/// `ills`.
+fn reduce_one(
+    path: &Path,
+    s: &Setup,
+    method: &Method,
+    space: &RgbSpace,
+    ills: &[GridIlluminant],
+    illuminant_names: &[String],
+    basis_file: Option<PathBuf>,
+) -> Result<ReducedPreset> {
+    let (d, bytes) = load_matrix(path)?;
     let op = d.to_operator(&s.grid, s.options);
-    let basis = basis_from_arg(&a.basis, &s)?;
-    let reduction = Reduction::from_name(&a.method)?;
-    let space = RgbSpace::from_name(&a.rgb)?;
-    let red = reduce(&op, &basis, reduction)?;
-    let p3 = xyz_matrix(&red, &basis, &s.xyz)?;
-    let p_rgb = rgb_matrix(&p3, &space);
-    let ills = load_illuminants(&a.illuminants, &s.xyz)?;
-    let method = Method {
-        reduction,
-        basis: basis.clone(),
-    };
-    let rows = evaluate(&op, std::slice::from_ref(&method), &ills, &s.xyz)?;
+    let basis = &method.basis;
+    let red = reduce(&op, basis, method.reduction)?;
+    let p3 = xyz_matrix(&red, basis, &s.xyz)?;
+    let p_rgb = rgb_matrix(&p3, space);
+    let rows = evaluate(&op, std::slice::from_ref(method), ills, &s.xyz)?;
     let section = fluorescence_section(
         &ReductionRecord {
             reduced: &red,
-            basis: &basis,
+            basis,
             observer: &s.observer,
             grid: &s.grid,
             xyz_matrix: &p3,
             rgb_matrix: &p_rgb,
-            space: &space,
+            space,
             options: s.options,
             rows: &rows,
         },
-        &a.matrix.display().to_string(),
+        &path.display().to_string(),
     )?;
     let worst = section.worst_delta_e00;
-
-    let mut inputs: Vec<(PathBuf, Vec<u8>)> = vec![(a.matrix.clone(), bytes)];
-    if let Some(bp) = file_of(&a.basis) {
+    let mut inputs: Vec<(PathBuf, Vec<u8>)> = vec![(path.to_path_buf(), bytes)];
+    if let Some(bp) = basis_file {
         let (b, _) = read_input(&bp)?;
         inputs.push((bp, b));
     }
@@ -262,49 +346,174 @@ fn run_reduce(a: &ReduceArgs) -> Result<()> {
         .map(|(p, b)| (p.as_path(), b.as_slice()))
         .collect();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let preset = fluorescence_preset(d.name(), section, &command, &refs, &a.illuminants);
+    let preset = fluorescence_preset(d.name(), section, &command, &refs, illuminant_names);
     // Validated as a reader would before it is staged.
-    out.stage(&a.out, to_json_string(&preset)?.as_bytes())?;
-    if let Some(plot) = &a.plot {
-        let chart = FluorChart::from_evaluation(
-            &d,
-            vec![(method.name(), basis.labels().to_vec(), red.p.clone())],
-            &rows,
-        );
-        out.stage(plot, &fluor_chart_png(&chart)?)?;
-    }
-    out.commit()?;
-    let mut text = format!(
-        "{}: {} ({}×{}), worst ΔE00 {:.3}\n",
-        d.name(),
-        method.name(),
-        basis.k(),
-        basis.k(),
-        worst
-    );
-    for r in &rows {
-        text.push_str(&format!(
-            "  {:<8} ΔE00 {:>7.3}\n",
-            r.illuminant, r.delta_e00
-        ));
-    }
-    text.push_str(&format!("wrote {}", a.out.display()));
-    emit(&text)
+    let json = to_json_string(&preset)?;
+    Ok(ReducedPreset {
+        matrix: d,
+        red,
+        rows,
+        worst,
+        json,
+    })
 }
 
-fn run_eval(a: &EvalArgs) -> Result<()> {
+/// The ΔE00 table of reduced presets: `material,file,illuminant,method,delta_e00`.
+fn reduce_table(done: &[(PathBuf, ReducedPreset)]) -> String {
+    let mut t = String::from("material,file,illuminant,method,delta_e00\n");
+    for (p, r) in done {
+        for row in &r.rows {
+            t.push_str(&format!(
+                "{},{},{},{},{:.4}\n",
+                csv_field(&row.material),
+                csv_field(&p.display().to_string()),
+                csv_field(&row.illuminant),
+                row.method,
+                row.delta_e00
+            ));
+        }
+    }
+    t
+}
+
+/// A CSV field, quoted when it holds a comma or a quote.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn run_reduce(a: &ReduceArgs) -> Result<()> {
+    let matrices = expand_matrices(&a.matrices)?;
+    if matrices.len() > 1 && a.out.is_some() {
+        anyhow::bail!(
+            "--out names one preset but {} matrices were given; use --out-dir DIR for one preset each",
+            matrices.len()
+        );
+    }
+    if matrices.len() > 1 && a.plot.is_some() {
+        anyhow::bail!("--plot draws one matrix; {} were given", matrices.len());
+    }
     let mut out = Outputs::new();
-    out.inputs(&a.matrices);
-    register_common(&mut out, &a.illuminants, &[]);
+    out.inputs(&matrices);
+    register_common(&mut out, &a.illuminants, &[&a.basis]);
+    let targets = match (&a.out, &a.out_dir) {
+        (Some(p), None) => vec![p.clone()],
+        (None, Some(dir)) => {
+            out.declare_dir("--out-dir", dir)?;
+            preset_paths(dir, &matrices)?
+        }
+        _ => anyhow::bail!("give either --out FILE.json (one matrix) or --out-dir DIR"),
+    };
+    for t in &targets {
+        out.declare("--out", t)?;
+    }
+    if let Some(p) = &a.table {
+        out.declare("--table", p)?;
+    }
     if let Some(p) = &a.plot {
         out.declare("--plot", p)?;
     }
     let s = setup(&a.common)?;
+    let basis = basis_from_arg(&a.basis, &s)?;
+    let reduction = Reduction::from_name(&a.method)?;
+    let space = RgbSpace::from_name(&a.rgb)?;
+    let ills = load_illuminants(&a.illuminants, &s.xyz)?;
+    let method = Method {
+        reduction,
+        basis: basis.clone(),
+    };
+    let mut done = Vec::with_capacity(matrices.len());
+    for (m, target) in matrices.iter().zip(&targets) {
+        let r = reduce_one(
+            m,
+            &s,
+            &method,
+            &space,
+            &ills,
+            &a.illuminants,
+            file_of(&a.basis),
+        )?;
+        out.stage(target, r.json.as_bytes())?;
+        done.push((m.clone(), r));
+    }
+    if let (Some(plot), Some((_, r))) = (&a.plot, done.first()) {
+        let chart = FluorChart::from_evaluation(
+            &r.matrix,
+            vec![(method.name(), basis.labels().to_vec(), r.red.p.clone())],
+            &r.rows,
+        );
+        out.stage(plot, &fluor_chart_png(&chart)?)?;
+    }
+    if let Some(p) = &a.table {
+        out.stage_text(p, &reduce_table(&done))?;
+    }
+    out.commit()?;
+    let mut text = String::new();
+    for (target, (_, r)) in targets.iter().zip(&done) {
+        text.push_str(&format!(
+            "{}: {} ({}×{}), worst ΔE00 {:.3} → {}\n",
+            r.matrix.name(),
+            method.name(),
+            basis.k(),
+            basis.k(),
+            r.worst,
+            target.display()
+        ));
+        if done.len() == 1 {
+            for row in &r.rows {
+                text.push_str(&format!(
+                    "  {:<8} ΔE00 {:>7.3}\n",
+                    row.illuminant, row.delta_e00
+                ));
+            }
+        }
+    }
+    let text = text.trim_end();
+    // The summary never shares standard output with a table written there.
+    if a.table.as_ref().is_some_and(|p| p.as_os_str() == "-") || done.len() > 1 {
+        eprintln!("{text}");
+        Ok(())
+    } else {
+        emit(text)
+    }
+}
+
+fn run_eval(a: &EvalArgs) -> Result<()> {
+    let matrices = expand_matrices(&a.matrices)?;
+    let mut out = Outputs::new();
+    out.inputs(&matrices);
+    register_common(&mut out, &a.illuminants, &[]);
+    out.declare("--out", &a.out)?;
+    if let Some(p) = &a.plot {
+        out.declare("--plot", p)?;
+    }
+    let presets = match &a.out_dir {
+        Some(dir) => {
+            out.declare_dir("--out-dir", dir)?;
+            let paths = preset_paths(dir, &matrices)?;
+            for p in &paths {
+                out.declare("--out-dir", p)?;
+            }
+            paths
+        }
+        None => Vec::new(),
+    };
+    let s = setup(&a.common)?;
     let methods = methods_from_names(&a.methods, &s)?;
     let ills = load_illuminants(&a.illuminants, &s.xyz)?;
+    if let (Some(_), Some(first_method)) = (&a.out_dir, methods.first()) {
+        let space = RgbSpace::from_name(&a.rgb)?;
+        for (m, target) in matrices.iter().zip(&presets) {
+            let r = reduce_one(m, &s, first_method, &space, &ills, &a.illuminants, None)?;
+            out.stage(target, r.json.as_bytes())?;
+        }
+    }
     let mut rows = Vec::new();
     let mut first: Option<(DonaldsonMatrix, OperatorMatrix)> = None;
-    for p in &a.matrices {
+    for p in &matrices {
         let (d, _) = load_matrix(p)?;
         let op = d.to_operator(&s.grid, s.options);
         let evaluated = evaluate(&op, &methods, &ills, &s.xyz)?;
@@ -333,27 +542,43 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
             })
             .collect::<Result<Vec<_>>>()?;
         let mut chart = FluorChart::from_evaluation(d, reduced, &rows);
-        if a.matrices.len() > 1 {
-            chart.title = format!(
-                "{} (ΔE00: mean of {} materials)",
-                d.name(),
-                a.matrices.len()
-            );
+        if matrices.len() > 1 {
+            chart.title = format!("{} (ΔE00: mean of {} materials)", d.name(), matrices.len());
         }
         out.stage(plot, &fluor_chart_png(&chart)?)?;
     }
+    let table = if a.json {
+        serde_json::to_string(&rows)? + "\n"
+    } else {
+        let mut t = String::from("material,illuminant,method,delta_e00\n");
+        for r in &rows {
+            t.push_str(&format!(
+                "{},{},{},{:.4}\n",
+                csv_field(&r.material),
+                csv_field(&r.illuminant),
+                r.method,
+                r.delta_e00
+            ));
+        }
+        t
+    };
+    out.stage_text(&a.out, &table)?;
     out.commit()?;
-    if a.json {
-        return emit(&serde_json::to_string(&rows)?);
-    }
-    let mut t = String::from("material,illuminant,method,delta_e00\n");
-    for r in &rows {
-        t.push_str(&format!(
-            "{},{},{},{:.4}\n",
-            r.material, r.illuminant, r.method, r.delta_e00
-        ));
-    }
-    t.push_str("\nsummary over materials: mean / max ΔE00\n");
+    let mut t = format!(
+        "{} materials × {} illuminants × {} methods{}{}\nsummary over materials: mean / max ΔE00\n",
+        matrices.len(),
+        ills.len(),
+        methods.len(),
+        if a.out.as_os_str() == "-" {
+            String::new()
+        } else {
+            format!("; table → {}", a.out.display())
+        },
+        a.out_dir
+            .as_ref()
+            .map(|d| format!("; {} presets → {}", presets.len(), d.display()))
+            .unwrap_or_default()
+    );
     let summary = summarise(&rows);
     t.push_str(&format!("{:<12}", "method"));
     for i in &ills {
@@ -374,10 +599,17 @@ fn run_eval(a: &EvalArgs) -> Result<()> {
         }
         t.push('\n');
     }
-    emit(t.trim_end())
+    // The summary goes to standard error: standard output may carry the table.
+    eprintln!("{}", t.trim_end());
+    Ok(())
 }
 
 fn run_select(a: &SelectArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.matrix);
+    register_common(&mut out, &a.illuminants, &[]);
+    out.inputs(&a.extra_basis);
+    out.declare("--out", &a.out)?;
     let s = setup(&a.common)?;
     let (d, _) = load_matrix(&a.matrix)?;
     let op = d.to_operator(&s.grid, s.options);
@@ -414,7 +646,9 @@ fn run_select(a: &SelectArgs) -> Result<()> {
                 json!(sel.chosen.map(|i| sel.candidates[i].method.clone())),
             );
         }
-        return emit(&serde_json::to_string_pretty(&v)?);
+        out.stage_text(&a.out, &(serde_json::to_string_pretty(&v)? + "\n"))?;
+        out.commit()?;
+        return Ok(());
     }
     let mut t = format!(
         "{}: illuminants {}; target worst ΔE00 < {}\n",
@@ -445,10 +679,16 @@ fn run_select(a: &SelectArgs) -> Result<()> {
             ))
         }
     }
-    emit(&t)
+    t.push('\n');
+    out.stage_text(&a.out, &t)?;
+    out.commit()?;
+    Ok(())
 }
 
 fn run_sweep(a: &SweepArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(&a.matrix);
+    out.declare("--out", &a.out)?;
     let s = setup(&a.common)?;
     let (d, _) = load_matrix(&a.matrix)?;
     let op = d.to_operator(&s.grid, s.options);
@@ -485,5 +725,7 @@ fn run_sweep(a: &SweepArgs) -> Result<()> {
             r.xyz_reference[1] - r.xyz_reduced[1]
         ));
     }
-    emit(t.trim_end())
+    out.stage_text(&a.out, &t)?;
+    out.commit()?;
+    Ok(())
 }
