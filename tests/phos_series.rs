@@ -71,7 +71,8 @@ fn synthetic_frames_load_as_a_series_whose_roi_curve_matches_the_simulation() {
     let manifest = synth_halves(d.path());
     let loaded = load_series(Path::new(&manifest), &SeriesOptions::default(), &|| {}).unwrap();
     assert_eq!(loaded.series.len(), 37);
-    // the relative radiance of the left half is gain × the noiseless simulated curve
+    // the relative radiance of the left half is the noiseless simulated curve: frames hold
+    // gain × curve × exposure and the manifest's ISO is 100 × gain (pipeline::synth_frames_iso)
     let m = &table1_material("green_paint").unwrap().material;
     let cam = BandCamera::for_bands(&m.bands, None).unwrap();
     let spec = DecaySeriesSpec {
@@ -86,7 +87,7 @@ fn synthetic_frames_load_as_a_series_whose_roi_curve_matches_the_simulation() {
     let roi = lumifit::capture::Roi::parse_rect("0,0,12,10").unwrap();
     let curve = loaded.series.extract(&roi).unwrap();
     for (j, sample) in curve.iter().take(3).enumerate() {
-        let want = fr.clean_value(0, j)[1] / fr.exposure_s;
+        let want = fr.clean_value(0, j)[1] / fr.exposure_s / fr.gain;
         let got = sample.mean[1];
         // 120 pixels at 1 % noise: the mean is within 0.5 % of the clean value
         assert!(

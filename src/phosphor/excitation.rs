@@ -619,6 +619,9 @@ fn with_rates(material: &Material, bands: &[(usize, Vec<f64>)]) -> Material {
 const R0_SCAN_POINTS: usize = 41;
 /// Smallest r(0) of the scan.
 const R0_SCAN_MIN: f64 = 1e-4;
+/// Largest |ln r(0)_implied − ln r(0)| accepted at the start of the joint fit (10 %): beyond it
+/// the decay's Λ and the charging curves are not of one material in one camera's units.
+const MAX_START_MISMATCH: f64 = 0.0953;
 
 /// Per-band fits with Λ/c, the r(0) those rates imply, and the total χ².
 fn scan_point(
@@ -810,12 +813,29 @@ fn fit_with_decay_charging(
             best = Some((c, fits, chi2));
         }
     }
-    let Some((_, start, _)) = best else {
+    let Some((c_best, start, _)) = best else {
         return Err(Error::invalid(
             "charging data",
             "no start for the joint fit of k_e and r(0)",
         ));
     };
+    let (_, r0_best, _) = scan_point(material, camera, inputs, opts, c_best)?;
+    let miss = mismatch(&r0_best, c_best);
+    if !(miss.abs() <= MAX_START_MISMATCH) {
+        return Err(Error::invalid(
+            "charging data",
+            format!(
+                "the charging curves and the decay preset's Λ disagree in scale: with the decay \
+                 measurement {}, the best r(0) = {c_best:.4} gives rates that imply r(0) = {:.4} \
+                 (no r(0) in [{R0_SCAN_MIN}, 1] agrees to {:.0} %); both measurements must be in \
+                 the same camera units (relative radiance of one camera), and the protocol must be \
+                 the one used",
+                opts.decay_charging.describe(),
+                r0_best[0],
+                (MAX_START_MISMATCH.exp() - 1.0) * 100.0
+            ),
+        ));
+    }
     // 2. All bands at once with the exact coupling through r(0).
     let n_per_band: Vec<usize> = start
         .iter()

@@ -178,6 +178,61 @@ pub fn decay_preset(
     })
 }
 
+/// Corrects a decay preset for exposure windows: frames that integrate [t, t + τ] record the
+/// window mean of each state's e^{−k t}, which is its value at t times (1 − e^{−kτ})/(kτ); the
+/// rates are unaffected, the amplitudes (and so Λ) are multiplied back by kτ/(1 − e^{−kτ}) per
+/// state, the decay-fit record's amplitudes alike (so `fit-excitation`'s Λ check stays
+/// consistent). Returns the factor per state.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] for an exposure that is not finite and > 0.
+pub fn correct_for_exposure(dp: &mut DecayPreset, exposure_s: f64) -> Result<Vec<f64>> {
+    if !(exposure_s.is_finite() && exposure_s > 0.0) {
+        return Err(Error::invalid(
+            "--exposure-s",
+            format!("{exposure_s}; expected the frames' exposure time in s (> 0)"),
+        ));
+    }
+    let factor = |k: f64| {
+        let x = k * exposure_s;
+        if x < 1e-12 {
+            1.0
+        } else {
+            x / -(-x).exp_m1()
+        }
+    };
+    let mut out = Vec::with_capacity(dp.states.len());
+    for ((k, lambda), rec) in dp.states.iter_mut().zip(dp.record.states.iter_mut()) {
+        let f = factor(*k);
+        for l in lambda.iter_mut() {
+            *l *= f;
+        }
+        rec.amplitude *= f;
+        if let Some(sd) = &mut rec.amplitude_sigma {
+            *sd *= f;
+        }
+        for a in &mut rec.channel_amplitudes {
+            *a *= f;
+        }
+        out.push(f);
+    }
+    dp.record.assumption.push_str(&format!(
+        "; amplitudes at the start of exposure windows of {exposure_s} s, corrected by k*tau/(1 - exp(-k*tau)) per state: {out:?}"
+    ));
+    Ok(out)
+}
+
+/// The one exposure time of a series' frames, or `None` when they differ (by more than 10⁻⁹
+/// relative).
+pub fn series_exposure_s(series: &PhotoSeries) -> Option<f64> {
+    let first = series.frames().first()?.exposure.exposure_s;
+    series
+        .frames()
+        .iter()
+        .all(|f| (f.exposure.exposure_s - first).abs() <= 1e-9 * first.abs())
+        .then_some(first)
+}
+
 /// The charging flags of `phos fit-decay` (`--saturated`, `--charge-s`, `--charge-irradiance`,
 /// `--charging FILE.json`).
 #[derive(Debug, Clone, Default)]
@@ -541,6 +596,13 @@ pub fn synth_curve_csv(c: &SyntheticCurve) -> CurveCsv {
     }
 }
 
+/// The ISO written for synthetic decay frames: 100 · gain, so that the series loader's relative
+/// radiance (value / (exposure_s · ISO/100), f/1) is the simulation's camera RGB itself — the
+/// units of `synth phos-excitation`, so a decay and a charging experiment of one material agree.
+pub fn synth_frames_iso(fr: &DecayFrames) -> f64 {
+    100.0 * fr.gain
+}
+
 /// The ground truth of a synthetic decay series (`truth.json`).
 pub fn synth_frames_truth(
     material: &Material,
@@ -569,10 +631,10 @@ pub fn synth_frames_truth(
         "regions": regions,
         "charging": fr.curves[0].charging, "charging_file": crate::io::phos_formats::CHARGING_SIDECAR,
         "frames": spec.frames, "interval_s": spec.interval_s,
-        "exposure_s": spec.exposure_s, "iso": 100, "f_number": 1,
+        "exposure_s": spec.exposure_s, "iso": synth_frames_iso(fr), "f_number": 1,
         "noise": spec.noise, "seed": spec.seed,
         "gain": fr.gain,
-        "values": "frame value = gain * camera RGB window mean * exposure_s, 16-bit linear (0-65535 = 0-1), shot + read noise (capture::synth::noisy_value, peak 0.8)",
+        "values": "frame value = gain * camera RGB window mean * exposure_s, 16-bit linear (0-65535 = 0-1), shot + read noise (capture::synth::noisy_value, peak 0.8); the manifest's ISO is 100 * gain, so relative radiance (value / (exposure_s * ISO/100)) is the camera RGB of the simulation, in the units of synth phos-excitation",
         "manifest": "manifest.csv",
     }))
 }

@@ -147,9 +147,13 @@ fn phos_decay(a: &PhosDecayArgs) -> Result<()> {
         )?;
         out.commit()?;
         return super::emit(&format!(
-            "wrote {}, manifest.json and {CHARGING_SIDECAR} ({})",
+            "wrote {}, manifest.json and {CHARGING_SIDECAR} ({}); values are means over exposure \
+             windows of {} s from each time_s: fit with `phos fit-decay {} --exposure-s {}`",
             path.display(),
-            charging.describe()
+            charging.describe(),
+            spec.exposure_s,
+            path.display(),
+            spec.exposure_s
         ));
     };
     frames(out, a, &material, &camera, &spec, &charging, (w, h))
@@ -225,10 +229,13 @@ fn frames(
         }
     }
     bar.finish_and_clear();
+    // ISO 100·gain: relative radiance is the simulation's camera RGB (the units of
+    // synth phos-excitation).
+    let iso = pipe::synth_frames_iso(&fr);
     let rows: Vec<(String, f64, f64, f64, f64)> = names
         .iter()
         .zip(&fr.t_s)
-        .map(|(n, t)| (n.clone(), *t, fr.exposure_s, 100.0, 1.0))
+        .map(|(n, t)| (n.clone(), *t, fr.exposure_s, iso, 1.0))
         .collect();
     out.stage_text(a.out.join("manifest.csv"), &manifest_csv(&rows))?;
     let truth = pipe::synth_frames_truth(material, layout, &fr, spec)?;
