@@ -5,6 +5,9 @@
 //! keys read back from the file and linearly interpolated stay within the stated error of the
 //! exact rate-equation solution at 1000 random times; bad input exits 2 and writes nothing.
 
+// Channel loops mirror the maths (rgb[c]).
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -266,7 +269,11 @@ fn glow_keys(doc: &Value) -> (Vec<f64>, Vec<[f64; 3]>, Vec<f64>) {
             .as_str()
             .unwrap();
         let sampler = &anim["samplers"][ch["sampler"].as_u64().unwrap() as usize];
-        assert_eq!(sampler["interpolation"], "LINEAR");
+        let light = pointer.starts_with("/extensions/KHR_lights_punctual");
+        assert_eq!(
+            sampler["interpolation"],
+            if light { "STEP" } else { "LINEAR" }
+        );
         let i = sampler["input"].as_u64().unwrap() as usize;
         assert!(
             input.is_none_or(|j| j == i),
@@ -278,6 +285,15 @@ fn glow_keys(doc: &Value) -> (Vec<f64>, Vec<[f64; 3]>, Vec<f64>) {
             "/materials/0/emissiveFactor" => factor = Some(out),
             "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength" => {
                 strength = Some(out)
+            }
+            "/extensions/KHR_lights_punctual/lights/0/intensity" => {
+                // --scene sphere: the light is switched off for the whole glow.
+                assert!(out.iter().all(|v| *v == 0.0));
+                assert_eq!(
+                    doc["extensions"]["KHR_lights_punctual"]["lights"][0]["type"],
+                    "directional"
+                );
+                continue;
             }
             other => panic!("unexpected pointer {other}"),
         }
@@ -853,12 +869,21 @@ fn three_js_loads_the_export_headless_and_its_animation_mixer_plays_the_glow_wit
     assert_eq!(mat["type"], "MeshStandardMaterial");
     assert_eq!(v["lights"][0]["type"], "DirectionalLight");
     let tracks = v["animations"][0]["tracks"].as_array().unwrap();
-    assert_eq!(tracks.len(), 2, "both pointer channels became tracks: {v}");
+    assert_eq!(
+        tracks.len(),
+        3,
+        "the three pointer channels became tracks: {v}"
+    );
+    assert!((v["lights"][0]["intensity"].as_f64().unwrap() - std::f64::consts::PI).abs() < 1e-12);
     let peak = exact(0.0).iter().fold(0.0f64, |a, &x| a.max(x));
     let (rel, abs) = (0.01, 1e-4); // the default --key-tolerance
     let mut worst = 0.0f64;
     for e in v["emission"].as_array().unwrap() {
         let t = e["t_s"].as_f64().unwrap();
+        assert_eq!(
+            e["light_intensity"], 0.0,
+            "the light is off after switch-off"
+        );
         let x = exact(t);
         for c in 0..3 {
             let got = e["rgb"][c].as_f64().unwrap();
@@ -870,4 +895,54 @@ fn three_js_loads_the_export_headless_and_its_animation_mixer_plays_the_glow_wit
         v["three"]
     );
     assert!(worst <= 1.0, "worst {worst}");
+}
+
+#[test]
+fn a_glow_over_wavelength_bands_outside_srgb_is_clipped_per_state_and_the_export_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = p(dir.path(), "w.gltf");
+    let preset = fixture("fixtures/presets/valid_material_wavelength_bands.json");
+    ok(&lumifit(&[
+        "preset", "export", &preset, "--format", "gltf", "--out", &out,
+    ]));
+    let doc = read_json(&out);
+    let e = &doc["asset"]["extras"]["lumifit"]["sections_detail"]["emission"];
+    // The states' colours through sRGB's matrix, unclipped: every clipped state has a negative
+    // channel, and every state with one is listed.
+    let sec = read_material(Path::new(&preset))
+        .unwrap()
+        .phosphorescence
+        .unwrap();
+    let m = band_to_rgb(&sec.bands, &RgbSpace::srgb().unwrap()).unwrap();
+    let negative: Vec<u64> = sec
+        .states
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| {
+            (0..3).any(|c| {
+                s.lambda
+                    .iter()
+                    .zip(&m)
+                    .map(|(l, col)| l * col[c])
+                    .sum::<f64>()
+                    < 0.0
+            })
+        })
+        .map(|(i, _)| i as u64)
+        .collect();
+    assert!(
+        !negative.is_empty(),
+        "the fixture's green band lies outside sRGB"
+    );
+    let listed: Vec<u64> = e["gamut_clipped_states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert_eq!(listed, negative);
+    // What is written stays a valid emission: every factor channel in [0, 1].
+    let (_, f, s) = glow_keys(&doc);
+    assert!(f.iter().flatten().all(|v| (0.0..=1.0).contains(v)));
+    assert!(s.iter().all(|v| *v > 0.0));
 }

@@ -34,10 +34,14 @@ const gltf = await new Promise((resolve, reject) => loader.parse(data, "", resol
 const materials = new Map();
 const lights = [];
 const cameras = [];
+const lightObjects = [];
 const root = gltf.scene ?? new THREE.Group(); // a material-only export has no scene
 root.traverse((o) => {
   if (o.isMesh) materials.set(o.material.uuid, o.material);
-  if (o.isLight) lights.push({ type: o.type, intensity: o.intensity });
+  if (o.isLight) {
+    lightObjects.push(o);
+    lights.push({ type: o.type, intensity: o.intensity });
+  }
   if (o.isCamera) cameras.push({ type: o.type, fov_deg: o.fov });
 });
 // Materials not on any mesh (a material-only export) are reached through the parser.
@@ -83,7 +87,11 @@ if (timesArg && gltf.animations.length > 0) {
   const m = mesh[0]?.material;
   out.emission = timesArg.split(",").map(Number).map((t) => {
     mixer.setTime(t);
-    return { t_s: t, rgb: m.emissive.toArray().map((c) => c * m.emissiveIntensity) };
+    return {
+      t_s: t,
+      rgb: m.emissive.toArray().map((c) => c * m.emissiveIntensity),
+      light_intensity: lightObjects[0]?.intensity ?? null,
+    };
   });
 }
 console.log(JSON.stringify(out, null, 1));

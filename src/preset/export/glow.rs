@@ -272,7 +272,7 @@ pub fn glow(
     let weights = space.matrix_rgb_to_xyz[1];
     let lum = |rgb: [f64; 3]| -> f64 { (0..3).map(|c| weights[c] * rgb[c]).sum() };
     let y0 = lum(glow_rgb(&r0, &k_r, &unscaled, 0.0));
-    if !(y0 > 0.0) {
+    if y0.is_nan() || y0 <= 0.0 {
         return Err(Error::invalid(
             format!("{file}: phosphorescence"),
             format!(

@@ -197,7 +197,7 @@ pub fn material_gltf(
         );
     }
 
-    let mut animations = Vec::new();
+    let (mut channels, mut samplers, mut glow_input) = (Vec::new(), Vec::new(), None);
     let glow = match &preset.phosphorescence {
         Some(_) => Some(glow(preset, file, &srgb, &opts.glow)?),
         None => None,
@@ -215,18 +215,14 @@ pub fn material_gltf(
         let factors: Vec<f32> = k.factor.iter().flatten().copied().collect();
         let out_f = buf.push_f32(&factors, AccessorType::Vec3, None, false);
         let out_s = buf.push_f32(&k.strength, AccessorType::Scalar, None, false);
-        let channel = |sampler: usize, pointer: &str| json!({"sampler": sampler, "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": pointer}}}});
-        animations.push(json!({
-            "name": format!("glow after switch-off ({} charge)", g.charge.describe()),
-            "channels": [
-                channel(0, "/materials/0/emissiveFactor"),
-                channel(1, "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength"),
-            ],
-            "samplers": [
-                {"input": input, "output": out_f, "interpolation": "LINEAR"},
-                {"input": input, "output": out_s, "interpolation": "LINEAR"},
-            ]
-        }));
+        channels.push(pointer_channel(0, "/materials/0/emissiveFactor"));
+        channels.push(pointer_channel(
+            1,
+            "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength",
+        ));
+        samplers.push(json!({"input": input, "output": out_f, "interpolation": "LINEAR"}));
+        samplers.push(json!({"input": input, "output": out_s, "interpolation": "LINEAR"}));
+        glow_input = Some(input);
         report.insert("emission".into(), emission_report(g));
     }
     if !ext.is_empty() {
@@ -266,9 +262,29 @@ pub fn material_gltf(
         doc["cameras"] = cameras;
         doc["extensions"] = json!({"KHR_lights_punctual": lights});
         used.push("KHR_lights_punctual");
+        // The glow is what is seen after switch-off: the animation turns the light off at t = 0
+        // (a STEP channel holding 0 on the glow's times); without animation support the light
+        // stays on and the material shows its switch-off values.
+        if let (Some(g), Some(input)) = (&glow, glow_input) {
+            let off = buf.push_f32(
+                &vec![0.0; g.keys.t_s.len()],
+                AccessorType::Scalar,
+                None,
+                false,
+            );
+            channels.push(pointer_channel(
+                samplers.len(),
+                "/extensions/KHR_lights_punctual/lights/0/intensity",
+            ));
+            samplers.push(json!({"input": input, "output": off, "interpolation": "STEP"}));
+        }
     }
-    if !animations.is_empty() {
-        doc["animations"] = json!(animations);
+    if let Some(g) = &glow {
+        doc["animations"] = json!([{
+            "name": format!("glow after switch-off ({} charge)", g.charge.describe()),
+            "channels": channels,
+            "samplers": samplers,
+        }]);
     }
     if !buf.is_empty() {
         doc["buffers"] = json!([{"byteLength": buf.bytes.len()}]);
@@ -286,6 +302,11 @@ pub fn material_gltf(
         glow,
         sections,
     })
+}
+
+/// A `KHR_animation_pointer` channel of `sampler` targeting the JSON pointer `pointer`.
+fn pointer_channel(sampler: usize, pointer: &str) -> Value {
+    json!({"sampler": sampler, "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": pointer}}}})
 }
 
 /// What the glow export states: charge, scale, tolerance, keys and the luminance at switch-off.

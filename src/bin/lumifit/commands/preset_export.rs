@@ -150,7 +150,7 @@ fn gltf(a: &ExportArgs) -> Result<()> {
     let openpbr_path = a.out.with_file_name(format!("{stem}.openpbr.json"));
     out.declare("--out", &a.out)?;
     out.declare("--out (OpenPBR beside it)", &openpbr_path)?;
-    if a.space.trim().to_ascii_lowercase() != "srgb" {
+    if !a.space.trim().eq_ignore_ascii_case("srgb") {
         return Err(lumifit::Error::invalid(
             "--space",
             format!(
