@@ -946,3 +946,65 @@ fn a_glow_over_wavelength_bands_outside_srgb_is_clipped_per_state_and_the_export
     assert!(f.iter().flatten().all(|v| (0.0..=1.0).contains(v)));
     assert!(s.iter().all(|v| *v > 0.0));
 }
+
+#[test]
+fn every_measured_fluorescent_material_reduces_and_exports_to_gltf_that_passes_the_validator() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/fluorescence");
+    if !data.is_dir() {
+        assert!(
+            std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+            "LUMIFIT_REQUIRE_DATA=1 but {} is absent",
+            data.display()
+        );
+        eprintln!(
+            "SKIPPED: {} is absent (measured fluorescence data)",
+            data.display()
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for sub in ["rit_gonzalez_bfc", "labsphere_3m_postit"] {
+        let mut bfcs: Vec<PathBuf> = std::fs::read_dir(data.join(sub))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("bfc")))
+            .collect();
+        bfcs.sort();
+        for bfc in bfcs {
+            let stem = bfc.file_stem().unwrap().to_string_lossy().to_string();
+            let preset = p(dir.path(), &format!("{stem}.json"));
+            ok(&lumifit(&[
+                "fluor",
+                "reduce",
+                bfc.to_str().unwrap(),
+                "--out",
+                &preset,
+            ]));
+            let out = dir.path().join(format!("{stem}.glb"));
+            ok(&lumifit(&[
+                "preset",
+                "export",
+                &preset,
+                "--format",
+                "gltf",
+                "--scene",
+                "sphere",
+                "--out",
+                out.to_str().unwrap(),
+            ]));
+            files.push(out);
+        }
+    }
+    assert!(files.len() >= 10, "only {} measured files", files.len());
+    let Some(report) = khronos_validator(&files) else {
+        return;
+    };
+    println!("{report}");
+    let lines: Vec<&str> = report.lines().filter(|l| l.contains(" errors, ")).collect();
+    assert_eq!(lines.len(), files.len(), "{report}");
+    assert!(
+        lines.iter().all(|l| l.contains(": 0 errors, 0 warnings,")),
+        "{report}"
+    );
+}

@@ -82,8 +82,7 @@ fn parameters(preset: &MaterialPreset, file: &str, opts: &OpenPbrOptions) -> Res
         params.push(("base_color", json!(b)));
         params.push(("base_metalness", json!(0.0)));
     }
-    if let Some(p) = &preset.phosphorescence {
-        let _ = p;
+    if preset.phosphorescence.is_some() {
         let g = glow(preset, file, space, &opts.glow)?;
         let rgb0 = g.rgb_at(0.0);
         let y0 = g.luminance(rgb0);
