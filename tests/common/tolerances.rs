@@ -172,3 +172,15 @@ pub mod shader_export {
     /// twins must agree with the f64 library to 1e-6 relative (issue 17's bound).
     pub const TWIN_REL_TOL: f64 = 1e-6;
 }
+
+/// `tests/gltf_export.rs`.
+pub mod gltf_export {
+    /// The glow keys are written as f32: a key read back differs from the f64 value it was made
+    /// from by half an ulp (6e-8 relative); the luminance at switch-off asked for is met to that.
+    pub const F32_REL: f64 = 1e-6;
+    /// A flat reflectance ρ is the neutral grey ρ in linear sRGB up to the rounding of the D65
+    /// white's xy in the sRGB matrices (1e-4 in the matrix entries → < 2e-3 here).
+    pub const FLAT_GREY_ABS: f64 = 2e-3;
+    /// The same Eq. 16 product computed twice in f64: rounding only.
+    pub const MATRIX_TOL: f64 = 1e-12;
+}

@@ -157,7 +157,7 @@ pub enum PresetCommand {
         file: PathBuf,
     },
     /// Export a preset to a renderer format (glTF 2.0 material, OpenPBR parameters).
-    Export(crate::commands::preset_export::ExportArgs),
+    Export(Box<crate::commands::preset_export::ExportArgs>),
 }
 
 #[derive(Debug, Args)]

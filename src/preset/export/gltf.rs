@@ -1,186 +1,330 @@
-//! glTF 2.0 and OpenPBR exports of a preset's `dispersion` section.
+//! glTF 2.0 of a material preset: one material carrying every section glTF can hold, optionally
+//! on a lit sphere (`--scene sphere`), as `.gltf` (buffer in a `data:` URI) or `.glb`.
 //!
-//! **glTF**: one material (and, so viewers show something, one unit cube mesh and node using it)
-//! with
-//! - `KHR_materials_ior`: `ior` = n_d;
-//! - `KHR_materials_dispersion`: `dispersion` = 20 / V_d — the extension's definition, which
-//!   implies the two-term Cauchy curve n = A + B/λ² through n_d with Abbe number V_d (the preset's
-//!   `derived.gltf_cauchy` gives its A, B and its error against the full model);
-//! - `KHR_materials_transmission`: `transmissionFactor` 1 (a clear dielectric);
-//! - `KHR_materials_volume`: `thicknessFactor` (default 1 m, the cube's size), optional
-//!   `attenuationDistance`/`attenuationColor` left at their defaults (no absorption).
+//! | section | glTF |
+//! |---|---|
+//! | reflectance | `pbrMetallicRoughness.baseColorFactor`: linear sRGB (Rec. 709 primaries, D65 white — glTF's only space) from the spectrum ([`super::base_colour`]); metallic 0, roughness 1 (a diffuse reflectance factor carries no gloss) |
+//! | phosphorescence | `emissiveFactor` × `KHR_materials_emissive_strength.emissiveStrength` = the glow at switch-off in cd/m², and its decay as `KHR_animation_pointer` LINEAR keys on both ([`super::glow`]); times in s |
+//! | fluorescence | `extras.lumifit_fluorescence` ([`super::fluorescence`]) and its base colour |
+//! | dispersion | `KHR_materials_ior` (n_d), `KHR_materials_dispersion` (20/V_d), `KHR_materials_transmission` 1, `KHR_materials_volume` (`thicknessFactor`); roughness 0 |
 //!
-//! glTF cannot carry the full n(λ): a renderer that reads these extensions sees only the Cauchy
-//! curve. **OpenPBR** likewise takes `specular_ior` = n_d, `transmission_weight` 1,
-//! `transmission_dispersion_abbe_number` = V_d and `transmission_dispersion_scale` 1.
+//! `KHR_materials_dispersion` implies the two-term Cauchy curve n = A + B/λ² through n_d with
+//! Abbe number V_d (the preset's `derived.gltf_cauchy` gives A, B and their error against the
+//! full model). Afterimage and photometric sections have no glTF material counterpart and are
+//! listed in `asset.extras.lumifit.not_exported`.
 
-use serde_json::{json, Value};
+use serde_json::{json, Map, Value};
 
+use crate::colorimetry::rgb::RgbSpace;
 use crate::error::{ensure_finite, Error, Result};
-use crate::preset::dispersion::DispersionSection;
 use crate::preset::MaterialPreset;
 
+use super::base_colour::{reflectance_to_base_colour, BaseColour, COLORIMETRY};
+use super::buffer::{data_uri, glb, AccessorType, BufferBuilder};
+use super::fluorescence::fluorescence_block;
+use super::glow::{glow, Glow, GlowOptions};
+use super::scene::sphere_scene;
+
+/// What the document holds besides the material.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Scene {
+    /// The material alone (no nodes).
+    #[default]
+    None,
+    /// A UV sphere with the material, a camera and a directional light ([`super::scene`]).
+    Sphere,
+}
+
 /// Options of the glTF export.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ExportOptions {
-    /// `KHR_materials_volume.thicknessFactor` in metres (> 0).
+    /// `KHR_materials_volume.thicknessFactor` in metres (> 0), dispersion only.
     pub thickness_m: f64,
+    /// The scene.
+    pub scene: Scene,
+    /// Charging, duration, tolerance and scale of the glow (phosphorescence only).
+    pub glow: GlowOptions,
 }
 
 impl Default for ExportOptions {
     fn default() -> Self {
-        ExportOptions { thickness_m: 1.0 }
+        ExportOptions {
+            thickness_m: 1.0,
+            scene: Scene::None,
+            glow: GlowOptions::default(),
+        }
     }
 }
 
-fn section<'a>(preset: &'a MaterialPreset, file: &str) -> Result<&'a DispersionSection> {
-    preset.dispersion.as_ref().ok_or_else(|| {
-        Error::invalid(
-            format!("{file}: dispersion"),
-            "the preset has no dispersion section; write one with `lumifit dispersion fit`",
+/// A glTF document before serialisation: the JSON (buffer 0 without `uri`) and buffer 0's bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GltfDocument {
+    /// The glTF JSON; `buffers[0]` (when present) has no `uri` yet.
+    pub json: Value,
+    /// Buffer 0 (empty when the document needs none).
+    pub bin: Vec<u8>,
+    /// The glow, when the preset has phosphorescence.
+    pub glow: Option<Glow>,
+    /// Sections written.
+    pub sections: Vec<&'static str>,
+}
+
+impl GltfDocument {
+    /// `.gltf` text: the buffer embedded as a base64 `data:` URI.
+    pub fn to_gltf(&self) -> Result<String> {
+        let mut doc = self.json.clone();
+        if !self.bin.is_empty() {
+            doc["buffers"][0]["uri"] = json!(data_uri(&self.bin));
+        }
+        Ok(
+            serde_json::to_string_pretty(&doc).map_err(|e| Error::Numerical {
+                what: "glTF JSON".into(),
+                reason: e.to_string(),
+            })? + "\n",
         )
-    })
-}
-
-/// Standard base64 (RFC 4648 §4, with padding) for the embedded buffer's data URI.
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let v = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(A[((v >> (18 - 6 * k)) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
     }
-    out
-}
 
-/// A unit cube (positions only, 36 non-indexed vertices) centred on the origin, as little-endian
-/// f32, with its min and max.
-fn cube() -> (Vec<u8>, [f32; 3], [f32; 3]) {
-    const F: [[usize; 4]; 6] = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    let corner = |i: usize| -> [f32; 3] {
-        [
-            if i & 4 != 0 { 0.5 } else { -0.5 },
-            if i & 2 != 0 { 0.5 } else { -0.5 },
-            if i & 1 != 0 { 0.5 } else { -0.5 },
-        ]
-    };
-    let mut bytes = Vec::with_capacity(36 * 12);
-    for f in F {
-        for idx in [f[0], f[1], f[2], f[0], f[2], f[3]] {
-            for v in corner(idx) {
-                bytes.extend_from_slice(&v.to_le_bytes());
-            }
-        }
+    /// `.glb` bytes (glTF 2.0 §4.4).
+    pub fn to_glb(&self) -> Result<Vec<u8>> {
+        let text = serde_json::to_vec(&self.json).map_err(|e| Error::Numerical {
+            what: "glTF JSON".into(),
+            reason: e.to_string(),
+        })?;
+        Ok(glb(&text, &self.bin))
     }
-    (bytes, [-0.5; 3], [0.5; 3])
 }
 
-/// The glTF 2.0 document (JSON) of `preset`'s dispersion section; `file` names the preset in
-/// errors.
-pub fn material_gltf(preset: &MaterialPreset, file: &str, opts: ExportOptions) -> Result<Value> {
-    let d = section(preset, file)?;
-    if !(opts.thickness_m.is_finite() && opts.thickness_m > 0.0) {
+/// The sections glTF carries, or an error naming what the preset has instead.
+fn exported_sections(preset: &MaterialPreset, file: &str) -> Result<Vec<&'static str>> {
+    let s: Vec<&'static str> = preset
+        .sections()
+        .into_iter()
+        .filter(|s| {
+            [
+                "reflectance",
+                "phosphorescence",
+                "fluorescence",
+                "dispersion",
+            ]
+            .contains(s)
+        })
+        .collect();
+    if s.is_empty() {
+        let has = preset.sections();
         return Err(Error::invalid(
-            "--thickness-m",
-            format!("{}; expected a positive thickness in m", opts.thickness_m),
+            format!("{file}: sections"),
+            format!(
+                "no section a material export carries (reflectance, phosphorescence, fluorescence, dispersion); the preset has: {}",
+                if has.is_empty() { "none".to_string() } else { has.join(", ") }
+            ),
         ));
     }
-    let dispersion = 20.0 / d.abbe_number;
-    ensure_finite("glTF dispersion (20 / V_d)", file, &[d.n_d, dispersion])?;
-    let (bytes, min, max) = cube();
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bytes));
-    Ok(json!({
-        "asset": {
-            "version": "2.0",
-            "generator": format!("lumifit {} preset export", env!("CARGO_PKG_VERSION")),
-        },
-        "extensionsUsed": [
+    Ok(s)
+}
+
+/// The glTF 2.0 document of `preset` (see the module docs); `file` names the preset in errors.
+pub fn material_gltf(
+    preset: &MaterialPreset,
+    file: &str,
+    opts: &ExportOptions,
+) -> Result<GltfDocument> {
+    let sections = exported_sections(preset, file)?;
+    let srgb = RgbSpace::srgb()?;
+    let mut used: Vec<&str> = Vec::new();
+    let mut buf = BufferBuilder::new();
+    let mut extras = Map::new();
+    let mut report = Map::new();
+
+    let reflectance: Option<BaseColour> = preset
+        .reflectance
+        .as_ref()
+        .map(|r| reflectance_to_base_colour(r, &srgb, file))
+        .transpose()?;
+    let mut base = reflectance.as_ref().map(|b| b.factor).unwrap_or([1.0; 3]);
+    if let Some(b) = &reflectance {
+        report.insert(
+            "reflectance".into(),
+            json!({"linear_srgb_unclipped": b.linear_rgb, "clipped": b.clipped, "xyz_d65": b.xyz}),
+        );
+    }
+    if let Some(f) = &preset.fluorescence {
+        let (block, b) = fluorescence_block(f, reflectance.as_ref(), &srgb, file)?;
+        base = b;
+        extras.insert("lumifit_fluorescence".into(), block);
+    }
+    let mut material = json!({
+        "name": preset.name,
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [base[0], base[1], base[2], 1.0],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 1.0
+        }
+    });
+    let mut ext = Map::new();
+
+    if let Some(d) = &preset.dispersion {
+        if !(opts.thickness_m.is_finite() && opts.thickness_m > 0.0) {
+            return Err(Error::invalid(
+                "--thickness-m",
+                format!("{}; expected a positive thickness in m", opts.thickness_m),
+            ));
+        }
+        let dispersion = 20.0 / d.abbe_number;
+        ensure_finite("glTF dispersion (20 / V_d)", file, &[d.n_d, dispersion])?;
+        material["pbrMetallicRoughness"]["roughnessFactor"] = json!(0.0);
+        ext.insert("KHR_materials_ior".into(), json!({"ior": d.n_d}));
+        ext.insert(
+            "KHR_materials_dispersion".into(),
+            json!({"dispersion": dispersion}),
+        );
+        ext.insert(
+            "KHR_materials_transmission".into(),
+            json!({"transmissionFactor": 1.0}),
+        );
+        ext.insert(
+            "KHR_materials_volume".into(),
+            json!({"thicknessFactor": opts.thickness_m}),
+        );
+        used.extend([
             "KHR_materials_dispersion",
             "KHR_materials_ior",
             "KHR_materials_transmission",
-            "KHR_materials_volume"
-        ],
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "name": preset.name}],
-        "meshes": [{
-            "name": preset.name,
-            "primitives": [{"attributes": {"POSITION": 0}, "material": 0}]
-        }],
-        "buffers": [{"byteLength": bytes.len(), "uri": uri}],
-        "bufferViews": [{"buffer": 0, "byteLength": bytes.len(), "target": 34962}],
-        "accessors": [{
-            "bufferView": 0,
-            "componentType": 5126,
-            "count": 36,
-            "type": "VEC3",
-            "min": min,
-            "max": max
-        }],
-        "materials": [{
-            "name": preset.name,
-            "pbrMetallicRoughness": {
-                "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 0.0
-            },
-            "extensions": {
-                "KHR_materials_ior": {"ior": d.n_d},
-                "KHR_materials_dispersion": {"dispersion": dispersion},
-                "KHR_materials_transmission": {"transmissionFactor": 1.0},
-                "KHR_materials_volume": {"thicknessFactor": opts.thickness_m}
-            },
-            "extras": {
-                "lumifit": {
-                    "abbe_number": d.abbe_number,
-                    "dispersion_model": d.model.kind,
-                    "range_nm": d.range_nm
-                }
-            }
-        }]
-    }))
-}
-
-/// OpenPBR parameters of `preset`'s dispersion section, as JSON.
-pub fn openpbr_parameters(preset: &MaterialPreset, file: &str) -> Result<Value> {
-    let d = section(preset, file)?;
-    ensure_finite("OpenPBR parameters", file, &[d.n_d, d.abbe_number])?;
-    Ok(json!({
-        "format": "OpenPBR Surface 1.1 parameters",
-        "material": preset.name,
-        "specular_ior": d.n_d,
-        "transmission_weight": 1.0,
-        "transmission_dispersion_abbe_number": d.abbe_number,
-        "transmission_dispersion_scale": 1.0,
-        "note": "OpenPBR keeps only n_d and V_d: the two-term Cauchy curve through n_d; see the preset's dispersion.derived.gltf_cauchy for its error"
-    }))
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn base64_matches_rfc4648_examples() {
-        assert_eq!(super::base64(b"f"), "Zg==");
-        assert_eq!(super::base64(b"fo"), "Zm8=");
-        assert_eq!(super::base64(b"foo"), "Zm9v");
-        assert_eq!(super::base64(b"foobar"), "Zm9vYmFy");
+            "KHR_materials_volume",
+        ]);
+        report.insert(
+            "dispersion".into(),
+            json!({"abbe_number": d.abbe_number, "dispersion_model": d.model.kind, "range_nm": d.range_nm}),
+        );
     }
+
+    let (mut channels, mut samplers, mut glow_input) = (Vec::new(), Vec::new(), None);
+    let glow = match &preset.phosphorescence {
+        Some(_) => Some(glow(preset, file, &srgb, &opts.glow)?),
+        None => None,
+    };
+    if let Some(g) = &glow {
+        let (factor0, strength0) = g.at_switch_off();
+        material["emissiveFactor"] = json!(factor0.map(f64::from));
+        ext.insert(
+            "KHR_materials_emissive_strength".into(),
+            json!({"emissiveStrength": f64::from(strength0)}),
+        );
+        used.extend(["KHR_animation_pointer", "KHR_materials_emissive_strength"]);
+        let k = &g.keys;
+        let input = buf.push_f32(&k.t_s, AccessorType::Scalar, None, true);
+        let factors: Vec<f32> = k.factor.iter().flatten().copied().collect();
+        let out_f = buf.push_f32(&factors, AccessorType::Vec3, None, false);
+        let out_s = buf.push_f32(&k.strength, AccessorType::Scalar, None, false);
+        channels.push(pointer_channel(0, "/materials/0/emissiveFactor"));
+        channels.push(pointer_channel(
+            1,
+            "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength",
+        ));
+        samplers.push(json!({"input": input, "output": out_f, "interpolation": "LINEAR"}));
+        samplers.push(json!({"input": input, "output": out_s, "interpolation": "LINEAR"}));
+        glow_input = Some(input);
+        report.insert("emission".into(), emission_report(g));
+    }
+    if !ext.is_empty() {
+        material["extensions"] = Value::Object(ext);
+    }
+    if !extras.is_empty() {
+        material["extras"] = Value::Object(extras);
+    }
+
+    let not_exported: Vec<&str> = preset
+        .sections()
+        .into_iter()
+        .filter(|s| !sections.contains(s))
+        .collect();
+    let mut doc = json!({
+        "asset": {
+            "version": "2.0",
+            "generator": format!("lumifit {} preset export", env!("CARGO_PKG_VERSION")),
+            "extras": {"lumifit": {
+                "preset": preset.name,
+                "sections": sections,
+                "not_exported": not_exported,
+                "working_space": "linear sRGB (Rec. 709 primaries, D65 white), glTF 2.0 §3.9.2",
+                "colorimetry": COLORIMETRY,
+                "sections_detail": report,
+            }}
+        },
+        "materials": [material],
+    });
+    if opts.scene == Scene::Sphere {
+        let (nodes, meshes, cameras, lights) = sphere_scene(&mut buf, &preset.name, 0);
+        doc["scene"] = json!(0);
+        doc["scenes"] =
+            json!([{"name": preset.name, "nodes": (0..nodes.len()).collect::<Vec<_>>()}]);
+        doc["nodes"] = json!(nodes);
+        doc["meshes"] = meshes;
+        doc["cameras"] = cameras;
+        doc["extensions"] = json!({"KHR_lights_punctual": lights});
+        used.push("KHR_lights_punctual");
+        // The glow is what is seen after switch-off: the animation turns the light off at t = 0
+        // (a STEP channel holding 0 on the glow's times); without animation support the light
+        // stays on and the material shows its switch-off values.
+        if let (Some(g), Some(input)) = (&glow, glow_input) {
+            let off = buf.push_f32(
+                &vec![0.0; g.keys.t_s.len()],
+                AccessorType::Scalar,
+                None,
+                false,
+            );
+            channels.push(pointer_channel(
+                samplers.len(),
+                "/extensions/KHR_lights_punctual/lights/0/intensity",
+            ));
+            samplers.push(json!({"input": input, "output": off, "interpolation": "STEP"}));
+        }
+    }
+    if let Some(g) = &glow {
+        doc["animations"] = json!([{
+            "name": format!("glow after switch-off ({} charge)", g.charge.describe()),
+            "channels": channels,
+            "samplers": samplers,
+        }]);
+    }
+    if !buf.is_empty() {
+        doc["buffers"] = json!([{"byteLength": buf.bytes.len()}]);
+        doc["bufferViews"] = json!(buf.views);
+        doc["accessors"] = json!(buf.accessors);
+    }
+    used.sort_unstable();
+    used.dedup();
+    if !used.is_empty() {
+        doc["extensionsUsed"] = json!(used);
+    }
+    Ok(GltfDocument {
+        json: doc,
+        bin: buf.bytes,
+        glow,
+        sections,
+    })
+}
+
+/// A `KHR_animation_pointer` channel of `sampler` targeting the JSON pointer `pointer`.
+fn pointer_channel(sampler: usize, pointer: &str) -> Value {
+    json!({"sampler": sampler, "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": pointer}}}})
+}
+
+/// What the glow export states: charge, scale, tolerance, keys and the luminance at switch-off.
+pub fn emission_report(g: &Glow) -> Value {
+    json!({
+        "charge": g.charge.describe(),
+        "charge_irradiance": g.irradiance,
+        "concentrations_at_switch_off": g.r0,
+        "nits_per_unit": g.nits_per_unit,
+        "unit": "emissiveFactor × emissiveStrength = linear RGB in cd/m²",
+        "luminance_at_switch_off_cd_m2": g.luminance(g.rgb_at(0.0)),
+        "luminance_at_end_cd_m2": g.luminance(g.rgb_at(g.duration_s)),
+        "duration_s": g.duration_s,
+        "keys": g.keys.t_s.len(),
+        "chord_keys": g.keys.chord_keys,
+        "interpolation": "LINEAR on emissiveFactor and emissiveStrength, times in s",
+        "key_tolerance": {"rel": g.tolerance.rel_tol, "abs_of_peak": g.tolerance.abs_tol},
+        "max_error_of_tolerance": g.keys.max_error,
+        "gamut_clipped_states": g.clipped_states,
+    })
 }
