@@ -141,3 +141,81 @@ fn per_pixel_maps_hold_at_the_default_one_percent_noise() {
     );
     assert!((k2 / 0.0454 - 1.0).abs() < 0.1, "right k2 = {k2}");
 }
+
+/// Bit patterns of every plane (NaN compares equal to itself).
+fn bits(m: &lumifit::phosphor::maps::PixelMaps) -> Vec<Vec<u32>> {
+    m.planes()
+        .iter()
+        .map(|p| p.iter().map(|v| v.to_bits()).collect())
+        .collect()
+}
+
+#[test]
+fn the_streamed_tile_run_equals_the_in_memory_fit_in_memory_and_through_a_scratch_file() {
+    use lumifit::io::series::{load_series, manifest_csv, SeriesOptions};
+    use lumifit::pipeline::phos::decay_frame_tiff;
+    use lumifit::pipeline::phos_maps::{fit_per_pixel, PerPixelConfig, PerPixelHooks};
+    let d = tempfile::tempdir().unwrap();
+    let (w, h) = (96, 64);
+    let (_, fr) = series(FrameLayout::Halves, w, h, 0.01);
+    let mut rows = Vec::new();
+    for j in 0..fr.len() {
+        let name = format!("f{j:02}.tif");
+        std::fs::write(d.path().join(&name), decay_frame_tiff(&fr, j).unwrap()).unwrap();
+        rows.push((name, fr.t_s[j], fr.exposure_s, 100.0, 1.0));
+    }
+    // a dark frame of 16-bit values, subtracted by both paths
+    let dark: Vec<u16> = (0..3 * w * h).map(|i| (i % 97) as u16).collect();
+    let dark_path = d.path().join("dark.tif");
+    std::fs::write(
+        &dark_path,
+        lumifit::io::image::encode_tiff16(w as u32, h as u32, &dark).unwrap(),
+    )
+    .unwrap();
+    let manifest = d.path().join("manifest.csv");
+    std::fs::write(&manifest, manifest_csv(&rows)).unwrap();
+    let opts = DecayFitOptions::default();
+    for darks in [vec![], vec![dark_path.clone()]] {
+        let loaded = load_series(
+            &manifest,
+            &SeriesOptions {
+                t0_s: None,
+                darks: darks.clone(),
+            },
+            &|| {},
+        )
+        .unwrap();
+        let want = fit_pixel_maps(&loaded.series, 1, &opts, &|| {}).unwrap();
+        // 65 MiB: the 1.4 MB store does not fit beside the 64 MiB base, 32 px tiles do
+        for (memory_mib, storage) in [(4096, "memory"), (65, "scratch file")] {
+            let cfg = PerPixelConfig {
+                block: 1,
+                tile: Some(32),
+                memory_mib,
+                scratch_dir: d.path().join("scratch"),
+                shard: None,
+                darks: darks.clone(),
+                threads: 2,
+            };
+            let hooks = PerPixelHooks {
+                planned: &|_| {},
+                decoded: &|| {},
+                fitted: &|| {},
+            };
+            let run = fit_per_pixel(&manifest, &opts, &cfg, &hooks).unwrap();
+            assert!(run.plan.storage.starts_with(storage), "{:?}", run.plan);
+            assert_eq!(
+                run.plan.encoding,
+                lumifit::phosphor::maps::SampleEncoding::U16
+            );
+            assert!(run.plan.peak_estimate_mib <= memory_mib as f64);
+            assert_eq!((run.maps.width, run.maps.height), (w, h));
+            assert_eq!(run.maps.n_failed, want.n_failed);
+            assert!(
+                bits(&run.maps) == bits(&want),
+                "{storage}, {} darks: the maps differ",
+                darks.len()
+            );
+        }
+    }
+}
