@@ -219,3 +219,85 @@ fn the_streamed_tile_run_equals_the_in_memory_fit_in_memory_and_through_a_scratc
         }
     }
 }
+
+#[test]
+fn materials_auto_finds_the_three_materials_of_a_noisy_scene_and_assigns_99_percent_of_pixels() {
+    use lumifit::phosphor::cluster::{cluster_materials, MaterialCount, DEFAULT_BUDGET};
+    // three stripes of 16 px: green paint (one state), its two-state variant (the synthesiser's
+    // halves layout), blue paint; the synthesiser's shot + read noise at 1 %
+    let spec = DecaySeriesSpec {
+        charge_s: 5400.0,
+        frames: 37,
+        interval_s: 5.0,
+        exposure_s: 1.0,
+        noise: 0.01,
+        seed: 3,
+    };
+    let (w, h) = (48, 24);
+    let frames_of = |name: &str, layout, w| {
+        let m = &table1_material(name).unwrap().material;
+        let cam = BandCamera::for_bands(&m.bands, None).unwrap();
+        DecayFrames::new(m, layout, &cam, &spec, w, h).unwrap()
+    };
+    let gv = frames_of("green_paint", FrameLayout::Halves, 32);
+    let bl = frames_of("blue_paint", FrameLayout::Uniform, 16);
+    assert_eq!(gv.t_s, bl.t_s);
+    let t_s = gv.t_s.clone();
+    let truth = |x: usize| x / 16;
+    let frames = (0..t_s.len())
+        .map(|j| {
+            let (a, b) = (gv.frame(j).unwrap(), bl.frame(j).unwrap());
+            let mut data = Vec::with_capacity(3 * w * h);
+            for y in 0..h {
+                data.extend_from_slice(&a[3 * 32 * y..3 * 32 * (y + 1)]);
+                data.extend_from_slice(&b[3 * 16 * y..3 * 16 * (y + 1)]);
+            }
+            SeriesFrame {
+                time_s: t_s[j],
+                exposure: Exposure::new(gv.exposure_s, 100.0, 1.0).unwrap(),
+                frame: RgbFrame::new(format!("f{j}"), w, h, 1, data, vec![0; w * h]).unwrap(),
+                info: FrameInfo::default(),
+            }
+        })
+        .collect();
+    let s = PhotoSeries::new(frames).unwrap();
+    let maps = fit_pixel_maps(&s, 1, &DecayFitOptions::default(), &|| {}).unwrap();
+    let m = cluster_materials(
+        &maps,
+        &t_s,
+        MaterialCount::Auto {
+            max: 12,
+            budget: DEFAULT_BUDGET,
+        },
+        7,
+    )
+    .unwrap();
+    assert_eq!(m.materials.len(), 3, "tried {:?}", m.tried);
+    // each true material's majority label, then the share of pixels carrying it
+    let mut correct = 0;
+    let mut seen = Vec::new();
+    for mat in 0..3 {
+        let mut count = [0usize; 4];
+        for i in (0..w * h).filter(|i| truth(i % w) == mat) {
+            count[usize::from(m.labels[i]).min(3)] += 1;
+        }
+        let (best, n) = count
+            .iter()
+            .enumerate()
+            .skip(1)
+            .max_by_key(|(_, n)| **n)
+            .unwrap();
+        eprintln!(
+            "material {mat}: label {best} for {n} of {} pixels",
+            w * h / 3
+        );
+        assert!(!seen.contains(&best), "two materials share label {best}");
+        seen.push(best);
+        correct += n;
+    }
+    let share = correct as f64 / (w * h) as f64;
+    assert!(share >= 0.99, "{share}: {:?}", m.tried);
+    // the K-material model reconstructs the per-pixel fits to well within the budget
+    assert!(m.chosen.p95 <= DEFAULT_BUDGET, "{:?}", m.chosen);
+    eprintln!("chosen {:?}; tried {:?}", m.chosen, m.tried);
+}

@@ -13,6 +13,7 @@
 //! No colour-science counterpart exists. The paper's Eq. 4 writes k_ε for k_r and Eq. 6 sums from
 //! i = 0; both are read as k_r and i = 1 here.
 
+pub mod cluster;
 pub mod decay;
 pub mod design;
 pub mod excitation;

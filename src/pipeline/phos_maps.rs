@@ -904,3 +904,106 @@ mod tests {
         assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
     }
 }
+
+/// The files of `--materials` (see [`crate::phosphor::cluster`]): one preset per material
+/// (`material_<k>.json`, RGB bands, Λ_i,c = a_i·S_c/k_i as `phos fit-decay` writes them), the
+/// index map `materials.png` (8-bit grey when K ≤ 255, else 16-bit: 0 where the fit failed,
+/// k for material k) and `materials.json` (the choice of K, errors, materials).
+///
+/// # Errors
+/// The errors of [`crate::phosphor::cluster::cluster_materials`] and of the encoders.
+pub fn material_files(
+    maps: &PixelMaps,
+    t_s: &[f64],
+    count: crate::phosphor::cluster::MaterialCount,
+    series: &Path,
+    name: &str,
+) -> Result<(Vec<(String, Vec<u8>)>, serde_json::Value)> {
+    use crate::phosphor::cluster::{cluster_materials, MaterialCount};
+    use crate::preset::{
+        phosphor::provenance_of_files, to_json_string, Bands, MaterialPreset,
+        PhosphorescenceSection, PhosphorescentState,
+    };
+    let m = cluster_materials(maps, t_s, count, 0x5eed)?;
+    let mut files = Vec::new();
+    let mut listed = Vec::new();
+    for (j, mat) in m.materials.iter().enumerate() {
+        let file = format!("material_{}.json", j + 1);
+        let states: Vec<PhosphorescentState> = mat
+            .k_per_s
+            .iter()
+            .zip(&mat.amplitude)
+            .map(|(k, a)| {
+                PhosphorescentState::new(*k, None, mat.spectrum.iter().map(|s| a * s / k).collect())
+            })
+            .collect();
+        let lambda: Vec<f64> = states
+            .iter()
+            .flat_map(|s| s.lambda.iter().copied())
+            .collect();
+        crate::error::ensure_finite("a material's re-radiation functions", &file, &lambda)?;
+        let provenance = provenance_of_files("lumifit phos fit-decay --per-pixel --materials", &[series])?
+            .with_fit_quality(serde_json::json!({
+                "material": j + 1, "materials": m.materials.len(), "blocks": mat.blocks,
+                "reconstruction_error_median": m.chosen.median, "reconstruction_error_p95": m.chosen.p95,
+            }));
+        let mut preset = MaterialPreset::new(format!("{name} material {}", j + 1), provenance);
+        let mut extra = serde_json::Map::new();
+        extra.insert(
+            "material_map".into(),
+            serde_json::json!({
+                "index_map": "materials.png", "index": j + 1,
+                "meaning": "blocks of materials.png with this value are this material; Λ is at the material's median brightness (per-block brightness: the a1..a3 maps)",
+                "k_per_s": mat.k_per_s, "amplitude": mat.amplitude, "spectrum_rgb": mat.spectrum,
+            }),
+        );
+        preset.phosphorescence = Some(PhosphorescenceSection {
+            bands: Bands::Rgb,
+            states,
+            extra,
+        });
+        files.push((file.clone(), to_json_string(&preset)?.into_bytes()));
+        listed.push(serde_json::json!({
+            "preset": file, "index": j + 1, "blocks": mat.blocks,
+            "k_per_s": mat.k_per_s, "amplitude": mat.amplitude, "spectrum_rgb": mat.spectrum,
+        }));
+    }
+    let (w, h) = (maps.width as u32, maps.height as u32);
+    let png = if m.materials.len() <= 255 {
+        let px: Vec<u8> = m.labels.iter().map(|l| *l as u8).collect();
+        encode_png(w, h, &px, image::ExtendedColorType::L8)?
+    } else {
+        let px: Vec<u8> = m.labels.iter().flat_map(|l| l.to_be_bytes()).collect();
+        encode_png(w, h, &px, image::ExtendedColorType::L16)?
+    };
+    files.push(("materials.png".into(), png));
+    let report = serde_json::json!({
+        "materials": m.materials.len(),
+        "choice": match count {
+            MaterialCount::Auto { max, budget } => serde_json::json!({"mode": "auto", "max": max, "budget_p95": budget,
+                "rule": "smallest K whose 95th-percentile relative reconstruction error (K-material model with one brightness per block, against the block's own fit, RMS over frames and channels / peak) is within the budget"}),
+            MaterialCount::Fixed(k) => serde_json::json!({"mode": "fixed", "k": k}),
+        },
+        "reconstruction_error": m.chosen,
+        "tried": m.tried,
+        "errors_sampled_blocks": m.sampled,
+        "index_map": "materials.png: 0 = fit failed, k = material k (material_k.json)",
+        "list": listed,
+    });
+    files.push((
+        "materials.json".into(),
+        serde_json::to_string_pretty(&report)
+            .map_err(|e| Error::invalid("materials.json", e.to_string()))?
+            .into_bytes(),
+    ));
+    Ok((files, report))
+}
+
+fn encode_png(w: u32, h: u32, px: &[u8], ty: image::ExtendedColorType) -> Result<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(px, w, h, ty)
+        .map_err(|e| Error::invalid("PNG", format!("encoding failed: {e}")))?;
+    Ok(out.into_inner())
+}

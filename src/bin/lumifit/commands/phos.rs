@@ -136,6 +136,15 @@ pub struct FitDecayArgs {
     /// write a partial map set (shard.json, maps.f32le) for `phos merge-maps`.
     #[arg(long)]
     pub shard: Option<String>,
+    /// With --per-pixel: group the per-pixel fits into materials, `auto` (the smallest K within
+    /// --material-budget) or K; writes material_<k>.json presets, materials.png (index map) and
+    /// materials.json.
+    #[arg(long)]
+    pub materials: Option<String>,
+    /// With --materials auto: budget on the 95th percentile of the relative reconstruction error
+    /// of the K-material model against the per-pixel fits.
+    #[arg(long, default_value_t = lumifit::phosphor::cluster::DEFAULT_BUDGET)]
+    pub material_budget: f64,
     /// With --per-pixel: folder for the tile scratch file (default: the system's temporary
     /// folder); used only when the frames do not fit --memory-gb.
     #[arg(long)]
@@ -475,11 +484,37 @@ fn per_pixel_config(a: &FitDecayArgs) -> Result<pipe_maps::PerPixelConfig> {
     })
 }
 
+fn materials_count(a: &FitDecayArgs) -> Result<Option<lumifit::phosphor::cluster::MaterialCount>> {
+    use lumifit::phosphor::cluster::{MaterialCount, MAX_MATERIALS};
+    let Some(m) = a.materials.as_deref() else {
+        return Ok(None);
+    };
+    if !(a.material_budget.is_finite() && a.material_budget > 0.0) {
+        bail!(
+            "--material-budget {}: expected a positive fraction, e.g. 0.02",
+            a.material_budget
+        );
+    }
+    Ok(Some(match m.trim() {
+        "auto" => MaterialCount::Auto {
+            max: MAX_MATERIALS,
+            budget: a.material_budget,
+        },
+        k => MaterialCount::Fixed(k.parse().ok().filter(|k| *k > 0).ok_or_else(|| {
+            anyhow::anyhow!("--materials '{k}': expected auto or a number of materials ≥ 1")
+        })?),
+    }))
+}
+
 fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
     if a.spectrum.is_some() || a.plot.is_some() {
         bail!("--spectrum and --plot apply to one curve; with --per-pixel the maps are the output");
     }
     let cfg = per_pixel_config(a)?;
+    let count = materials_count(a)?;
+    if count.is_some() && cfg.shard.is_some() {
+        bail!("--materials needs the whole map: run it without --shard");
+    }
     let mut out = Outputs::new();
     out.inputs(series_files(series_path)?).inputs(&a.dark);
     out.declare_dir("--out", &a.out)?;
@@ -525,6 +560,17 @@ fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Re
     }
     let series = series_path.display().to_string();
     let mut names = Vec::new();
+    let mut materials = serde_json::Value::Null;
+    if let Some(count) = count {
+        let name = a.name.clone().unwrap_or_else(|| "scene".into());
+        let (files, report) =
+            pipe_maps::material_files(&run.maps, &run.times.t_s, count, series_path, &name)?;
+        for (name, bytes) in files {
+            out.stage(a.out.join(&name), &bytes)?;
+            names.push(name);
+        }
+        materials = report;
+    }
     if cfg.shard.is_some() {
         for (name, bytes) in pipe_maps::shard_files(&run, &series)? {
             out.stage(a.out.join(&name), &bytes)?;
@@ -554,6 +600,10 @@ fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Re
         timing,
         serde_json::to_value(&run.plan)?,
     );
+    let mut summary = summary;
+    if !materials.is_null() {
+        summary["materials"] = materials;
+    }
     let text = serde_json::to_string_pretty(&summary)?;
     out.stage_text(a.out.join("summary.json"), &text)?;
     out.commit()?;
