@@ -28,6 +28,7 @@ pub mod refractive_index;
 pub mod series;
 pub mod sources;
 pub mod spectrum_csv;
+pub mod tiles;
 
 pub use output::Outputs;
 

@@ -286,7 +286,7 @@ pub struct SeriesOptions {
 }
 
 /// Resolves the exposure of a frame: EXIF first, manifest as fall-back.
-fn resolve_exposure(info: &mut FrameInfo, row: Option<&ManifestRow>) -> Result<Exposure> {
+pub fn resolve_exposure(info: &mut FrameInfo, row: Option<&ManifestRow>) -> Result<Exposure> {
     let manifest = row.map_or([None; 3], |r| [r.exposure_s, r.iso, r.f_number]);
     let mut warnings = Vec::new();
     let picked = exif_or_manifest(info, manifest, &mut warnings);
@@ -313,7 +313,7 @@ pub struct LoadedSeries {
 }
 
 /// Files of a directory that look like frames (RAW or image extensions), sorted by name.
-fn directory_frames(dir: &Path) -> Result<Vec<PathBuf>> {
+pub fn directory_frames(dir: &Path) -> Result<Vec<PathBuf>> {
     const IMAGE_EXT: &[&str] = &["png", "tif", "tiff", "exr"];
     let mut out = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {

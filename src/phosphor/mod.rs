@@ -14,6 +14,7 @@
 //! i = 0; both are read as k_r and i = 1 here.
 
 pub mod charging;
+pub mod cluster;
 pub mod decay;
 pub mod design;
 pub mod excitation;

@@ -7,6 +7,8 @@
 //! - [`acquisition`]: acquisition and colour glue.
 //! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
 //!   comparison, excitation, design reports, synthetic charging images).
+//! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 
 pub mod acquisition;
 pub mod phos;
+pub mod phos_maps;

@@ -6,7 +6,7 @@
 //! - [`decay_preset`]: a decay fit turned into the bands, states and record of a preset;
 //! - [`roi_curve`]: the mean curve of an ROI of a photo series, with σ;
 //! - [`fit_batch`]: a batch of curves fitted in parallel into result rows;
-//! - [`pixel_map_files`]: the per-pixel maps as TIFF files and their summary;
+//! - [`pixel_map_files`]: the per-pixel maps as TIFF files (summary and runs: [`super::phos_maps`]);
 //! - [`compare_integrators`]: error against run time of the integrators of Eq. 1;
 //! - [`excitation`]: the excitation fit with Λ checked against the preset's own decay fit;
 //! - [`design_report`]: the report of a design from keyframes;
@@ -347,88 +347,48 @@ pub fn roi_curve(series: &PhotoSeries, roi: &Roi, source: &str) -> Result<DecayC
 /// The files of a per-pixel fit: `k<i>_per_s.tif`, `a<i>.tif`, `n_states.tif`, `rms.tif`,
 /// `spectrum_<c>.tif`, `spectrum_rgb.tif` (name, TIFF bytes), in that order.
 pub fn pixel_map_files(maps: &PixelMaps) -> Result<Vec<(String, Vec<u8>)>> {
-    let (w, h) = (maps.width, maps.height);
     let mut files = Vec::new();
+    each_pixel_map_file(maps, &mut |name, bytes| {
+        files.push((name.to_string(), bytes));
+        Ok(())
+    })?;
+    Ok(files)
+}
+
+/// As [`pixel_map_files`], one file at a time: `f` gets each (name, TIFF bytes) as soon as it is
+/// encoded, so that only one map's bytes are in memory at once (camera-resolution maps are
+/// ~300 MB each).
+pub fn each_pixel_map_file(
+    maps: &PixelMaps,
+    f: &mut dyn FnMut(&str, Vec<u8>) -> Result<()>,
+) -> Result<()> {
+    let (w, h) = (maps.width, maps.height);
     for i in 0..MAP_STATES {
-        files.push((
-            format!("k{}_per_s.tif", i + 1),
+        f(
+            &format!("k{}_per_s.tif", i + 1),
             scalar_map_tiff(w, h, &maps.k_per_s[i])?,
-        ));
-        files.push((
-            format!("a{}.tif", i + 1),
+        )?;
+        f(
+            &format!("a{}.tif", i + 1),
             scalar_map_tiff(w, h, &maps.amplitude[i])?,
-        ));
+        )?;
     }
-    files.push((
-        "n_states.tif".into(),
-        scalar_map_tiff(w, h, &maps.n_states)?,
-    ));
-    files.push(("rms.tif".into(), scalar_map_tiff(w, h, &maps.rms)?));
+    f("n_states.tif", scalar_map_tiff(w, h, &maps.n_states)?)?;
+    f("rms.tif", scalar_map_tiff(w, h, &maps.rms)?)?;
     for (c, name) in ["r", "g", "b"].iter().enumerate() {
-        files.push((
-            format!("spectrum_{name}.tif"),
+        f(
+            &format!("spectrum_{name}.tif"),
             scalar_map_tiff(w, h, &maps.spectrum[c])?,
-        ));
+        )?;
     }
-    files.push((
-        "spectrum_rgb.tif".into(),
+    f(
+        "spectrum_rgb.tif",
         rgb_map_tiff(
             w,
             h,
             [&maps.spectrum[0], &maps.spectrum[1], &maps.spectrum[2]],
         )?,
-    ));
-    Ok(files)
-}
-
-/// The summary of a per-pixel fit (`summary.json`).
-pub fn pixel_map_summary(
-    series_source: &str,
-    series: &PhotoSeries,
-    maps: &PixelMaps,
-    files: &[String],
-    seconds: f64,
-    threads: usize,
-) -> serde_json::Value {
-    let (w, h) = series
-        .frames()
-        .first()
-        .map_or((0, 0), |f| (f.frame.width, f.frame.height));
-    let (mw, mh) = (maps.width, maps.height);
-    let median = |v: &[f32]| -> Option<f64> {
-        let mut x: Vec<f32> = v.iter().cloned().filter(|x| x.is_finite()).collect();
-        if x.is_empty() {
-            return None;
-        }
-        x.sort_by(f32::total_cmp);
-        Some(f64::from(x[x.len() / 2]))
-    };
-    let mut hist = [0usize; 4];
-    for n in &maps.n_states {
-        hist[(*n as usize).min(3)] += 1;
-    }
-    let n_blocks = mw * mh;
-    serde_json::json!({
-        "series": series_source,
-        "frames": series.len(),
-        "frame_size": [w, h],
-        "block": maps.block,
-        "map_size": [mw, mh],
-        "blocks": n_blocks,
-        "fitted": maps.n_fitted,
-        "failed": maps.n_failed,
-        "n_states_histogram": {"failed": hist[0], "1": hist[1], "2": hist[2], "3": hist[3]},
-        "median": {
-            "k1_per_s": median(&maps.k_per_s[0]), "k2_per_s": median(&maps.k_per_s[1]),
-            "k3_per_s": median(&maps.k_per_s[2]), "rms": median(&maps.rms),
-        },
-        "seconds": seconds,
-        "blocks_per_s": n_blocks as f64 / seconds.max(1e-9),
-        "threads": threads,
-        "maps": files,
-        "format": "32-bit float TIFF, value repeated in R=G=B (spectrum_rgb.tif: r,g,b); NaN where a block could not be fitted; k1 is the fastest rate",
-        "weights": "relative: sigma_t = max(max_c y_c(t), 1e-2 * peak) per block",
-    })
+    )
 }
 
 /// One row of the batch output for a fitted curve.

@@ -16,6 +16,7 @@ use lumifit::phosphor::{
     self, fit_decay, AmplitudeModel, DecayCurve, DecayFitOptions, Integrator, StatesChoice,
 };
 use lumifit::pipeline::phos as pipe;
+use lumifit::pipeline::phos_maps as pipe_maps;
 use lumifit::plot::phosphor_sim::{simulate_chart_png, SimulateChart};
 use lumifit::preset::phosphor::{decay_fit_preset, decay_flags_text, provenance_of_files};
 use lumifit::preset::to_json_string;
@@ -33,6 +34,19 @@ pub enum PhosCommand {
     FitDecay(FitDecayArgs),
     /// Error versus run time of the exact, RK4 and Euler integrators at several step sizes.
     CompareIntegrators(CompareArgs),
+    /// Merge the shards of a `fit-decay --per-pixel --shard i/n` run into the full map set.
+    MergeMaps(MergeMapsArgs),
+}
+
+/// `lumifit phos merge-maps`.
+#[derive(Debug, Args)]
+pub struct MergeMapsArgs {
+    /// Shard folders (each holding shard.json and maps.f32le), in any order.
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output folder for the full map set (as a single --per-pixel run writes it).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `lumifit phos compare-integrators`.
@@ -112,6 +126,31 @@ pub struct FitDecayArgs {
     /// Block side k for --per-pixel (k×k pixels averaged per fit).
     #[arg(long, default_value_t = 1)]
     pub block: usize,
+    /// With --per-pixel: peak memory in GiB for the frames, tiles and maps (default: the
+    /// LUMIFIT_MEMORY_GB budget, 16 GiB, which fits a 24 GB machine). Frames go to a scratch
+    /// file when they do not fit.
+    #[arg(long)]
+    pub memory_gb: Option<f64>,
+    /// With --per-pixel: tile side in pixels (default: about 32 MiB of samples per tile).
+    #[arg(long)]
+    pub tile: Option<usize>,
+    /// With --per-pixel: fit only shard i of n (0-based; tile rows split into n groups) and
+    /// write a partial map set (shard.json, maps.f32le) for `phos merge-maps`.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// With --per-pixel: group the per-pixel fits into materials, `auto` (the smallest K within
+    /// --material-budget) or K; writes material_<k>.json presets, materials.png (index map) and
+    /// materials.json.
+    #[arg(long)]
+    pub materials: Option<String>,
+    /// With --materials auto: budget on the 95th percentile of the relative reconstruction error
+    /// of the K-material model against the per-pixel fits.
+    #[arg(long, default_value_t = lumifit::phosphor::cluster::DEFAULT_BUDGET)]
+    pub material_budget: f64,
+    /// With --per-pixel: folder for the tile scratch file (default: the system's temporary
+    /// folder); used only when the frames do not fit --memory-gb.
+    #[arg(long)]
+    pub scratch_dir: Option<PathBuf>,
     /// Number of states: auto (BIC over 1–3) or 1, 2, 3.
     #[arg(long, default_value = "auto")]
     pub states: String,
@@ -171,6 +210,7 @@ pub fn run(cmd: PhosCommand) -> Result<()> {
         PhosCommand::Simulate(a) => simulate(&a),
         PhosCommand::FitDecay(a) => fit_decay_cmd(&a),
         PhosCommand::CompareIntegrators(a) => compare_integrators(&a),
+        PhosCommand::MergeMaps(a) => merge_maps(&a),
     }
 }
 
@@ -519,40 +559,183 @@ fn batch(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
     ))
 }
 
+fn per_pixel_config(a: &FitDecayArgs) -> Result<pipe_maps::PerPixelConfig> {
+    let memory_mib = match a.memory_gb {
+        None => lumifit::limits::memory_budget_mib(),
+        Some(g) if g.is_finite() && g > 0.0 => (g * 1024.0) as u64,
+        Some(g) => bail!("--memory-gb {g}: expected a positive number of GiB"),
+    };
+    Ok(pipe_maps::PerPixelConfig {
+        block: a.block,
+        tile: a.tile,
+        memory_mib,
+        scratch_dir: a.scratch_dir.clone().unwrap_or_else(std::env::temp_dir),
+        shard: a
+            .shard
+            .as_deref()
+            .map(pipe_maps::Shard::parse)
+            .transpose()?,
+        darks: a.dark.clone(),
+        threads: rayon::current_num_threads(),
+    })
+}
+
+fn materials_count(a: &FitDecayArgs) -> Result<Option<lumifit::phosphor::cluster::MaterialCount>> {
+    use lumifit::phosphor::cluster::{MaterialCount, MAX_MATERIALS};
+    let Some(m) = a.materials.as_deref() else {
+        return Ok(None);
+    };
+    if !(a.material_budget.is_finite() && a.material_budget > 0.0) {
+        bail!(
+            "--material-budget {}: expected a positive fraction, e.g. 0.02",
+            a.material_budget
+        );
+    }
+    Ok(Some(match m.trim() {
+        "auto" => MaterialCount::Auto {
+            max: MAX_MATERIALS,
+            budget: a.material_budget,
+        },
+        k => MaterialCount::Fixed(k.parse().ok().filter(|k| *k > 0).ok_or_else(|| {
+            anyhow::anyhow!("--materials '{k}': expected auto or a number of materials ≥ 1")
+        })?),
+    }))
+}
+
 fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
     if a.spectrum.is_some() || a.plot.is_some() {
         bail!("--spectrum and --plot apply to one curve; with --per-pixel the maps are the output");
     }
+    let cfg = per_pixel_config(a)?;
+    let count = materials_count(a)?;
+    if count.is_some() && cfg.shard.is_some() {
+        bail!("--materials needs the whole map: run it without --shard");
+    }
     let mut out = Outputs::new();
     out.inputs(series_files(series_path)?).inputs(&a.dark);
     out.declare_dir("--out", &a.out)?;
-    let series = load_series_with_bar(series_path, &a.dark)?;
-    let Some(first) = series.frames().first() else {
-        bail!("{}: no frames", series_path.display());
-    };
-    let rows = first.frame.height.div_ceil(a.block.max(1));
-    let bar = progress_bar(
-        rows as u64,
+    let decode_bar = indicatif::ProgressBar::new_spinner();
+    decode_bar.set_style(
+        indicatif::ProgressStyle::with_template("decoding {pos} frames into tiles {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    let fit_bar = progress_bar(
+        0,
         "fitting [{bar:30}] {pos}/{len} rows of blocks ({per_sec}, eta {eta})",
     );
-    let start = std::time::Instant::now();
-    let maps = phosphor::maps::fit_pixel_maps(&series, a.block, opts, &|| bar.inc(1));
-    bar.finish_and_clear();
-    let maps = maps.with_context(|| format!("{}: per-pixel fit", series_path.display()))?;
-    let secs = start.elapsed().as_secs_f64();
-    let files = pipe::pixel_map_files(&maps)?;
-    let mut names = Vec::with_capacity(files.len());
-    for (name, bytes) in &files {
-        out.stage(a.out.join(name), bytes)?;
-        names.push(name.clone());
+    let planned = |p: &pipe_maps::Plan| {
+        decode_bar.suspend(|| {
+            eprintln!(
+                "per-pixel plan: {}×{} px, {} frames, tiles of {} px ({} tiles, {} here), samples as {:?} in {} ({:.0} MiB), {} frame(s) decoded at once; peak estimate {:.0} MiB of the {} MiB budget",
+                p.frame_size[0], p.frame_size[1], p.frames, p.tile_px, p.tiles,
+                p.tiles_held[1] - p.tiles_held[0], p.encoding, p.storage, p.store_mib,
+                p.frames_in_flight, p.peak_estimate_mib, p.budget_mib
+            )
+        });
+        fit_bar.set_length(p.fit_units);
+    };
+    let hooks = pipe_maps::PerPixelHooks {
+        planned: &planned,
+        decoded: &|| decode_bar.inc(1),
+        fitted: &|| {
+            if fit_bar.position() == 0 && !decode_bar.is_finished() {
+                decode_bar.finish_and_clear();
+            }
+            fit_bar.inc(1)
+        },
+    };
+    let run = pipe_maps::fit_per_pixel(series_path, opts, &cfg, &hooks);
+    decode_bar.finish_and_clear();
+    fit_bar.finish_and_clear();
+    let run = run.with_context(|| format!("{}: per-pixel fit", series_path.display()))?;
+    for w in &run.warnings {
+        eprintln!("warning: {w}");
     }
-    let summary = pipe::pixel_map_summary(
-        &series_path.display().to_string(),
+    if run.reencoded {
+        eprintln!("note: a frame is not on the 16-bit grid, so the tiles hold f32 samples and every frame was decoded twice");
+    }
+    let series = series_path.display().to_string();
+    let mut names = Vec::new();
+    let mut materials = serde_json::Value::Null;
+    if let Some(count) = count {
+        let name = a.name.clone().unwrap_or_else(|| "scene".into());
+        let (files, report) =
+            pipe_maps::material_files(&run.maps, &run.times.t_s, count, series_path, &name)?;
+        for (name, bytes) in files {
+            out.stage(a.out.join(&name), &bytes)?;
+            names.push(name);
+        }
+        materials = report;
+    }
+    if cfg.shard.is_some() {
+        for (name, bytes) in pipe_maps::shard_files(&run, &series)? {
+            out.stage(a.out.join(&name), &bytes)?;
+            names.push(name);
+        }
+    } else {
+        pipe::each_pixel_map_file(&run.maps, &mut |name, bytes| {
+            out.stage(a.out.join(name), &bytes)?;
+            names.push(name.to_string());
+            Ok(())
+        })?;
+    }
+    let blocks = run.maps.width * run.maps.height;
+    let timing = serde_json::json!({
+        "decode_s": run.decode_s,
+        "fit_s": run.fit_s,
+        "blocks_per_s": blocks as f64 / run.fit_s.max(1e-9),
+        "threads": cfg.threads,
+        "peak_rss_mib": pipe_maps::peak_rss_mib(),
+    });
+    let summary = pipe_maps::per_pixel_summary(
         &series,
-        &maps,
+        &run.maps,
+        run.plan.frames,
+        run.plan.frame_size,
         &names,
-        secs,
-        rayon::current_num_threads(),
+        timing,
+        serde_json::to_value(&run.plan)?,
+    );
+    let mut summary = summary;
+    if !materials.is_null() {
+        summary["materials"] = materials;
+    }
+    let text = serde_json::to_string_pretty(&summary)?;
+    out.stage_text(a.out.join("summary.json"), &text)?;
+    out.commit()?;
+    super::emit(&text)
+}
+
+fn merge_maps(a: &MergeMapsArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    for d in &a.shards {
+        out.input(d.join(pipe_maps::SHARD_MANIFEST))
+            .input(d.join(pipe_maps::SHARD_DATA));
+    }
+    out.declare_dir("--out", &a.out)?;
+    let merged = pipe_maps::merge_shards(&a.shards)?;
+    let mut names = Vec::new();
+    pipe::each_pixel_map_file(&merged.maps, &mut |name, bytes| {
+        out.stage(a.out.join(name), &bytes)?;
+        names.push(name.to_string());
+        Ok(())
+    })?;
+    let m0 = &merged.manifests[0];
+    let timing = serde_json::json!({
+        "shard_seconds": merged.manifests.iter().map(|m| m.seconds).collect::<Vec<_>>(),
+    });
+    let summary = pipe_maps::per_pixel_summary(
+        &m0.series,
+        &merged.maps,
+        m0.frames,
+        m0.frame_size,
+        &names,
+        timing,
+        serde_json::json!({
+            "shards": merged.manifests.len(),
+            "fingerprint": m0.fingerprint,
+            "shard_plans": merged.manifests.iter().map(|m| m.plan.clone()).collect::<Vec<_>>(),
+        }),
     );
     let text = serde_json::to_string_pretty(&summary)?;
     out.stage_text(a.out.join("summary.json"), &text)?;
