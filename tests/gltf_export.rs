@@ -679,6 +679,22 @@ fn openpbr_and_materialx_carry_base_colour_emission_luminance_and_dispersion() {
         "2",
     ]));
     let text = std::fs::read_to_string(&mtlx).unwrap();
+    // `--out -` writes the same document to standard output, and nothing else.
+    let stdout = lumifit(&[
+        "preset",
+        "export",
+        combined,
+        "--format",
+        "mtlx",
+        "--out",
+        "-",
+        "--space",
+        "acescg",
+        "--peak-luminance",
+        "2",
+    ]);
+    ok(&stdout);
+    assert_eq!(String::from_utf8(stdout.stdout).unwrap(), text);
     let xml = roxmltree::Document::parse(&text).expect("well-formed XML");
     let root = xml.root_element();
     assert_eq!(root.tag_name().name(), "materialx");
@@ -769,6 +785,9 @@ fn bad_input_exits_2_names_the_file_or_flag_and_writes_nothing() {
         &run(&["--peak-luminance", "0"], &tape),
         &["--peak-luminance"],
     );
+    let o = lumifit(&["preset", "export", &tape, "--format", "gltf", "--out", "-"]);
+    assert_rejected(&o, &["--out", "standard output"]);
+    assert!(o.stdout.is_empty());
     assert!(!Path::new(&out).exists(), "nothing written");
     assert!(!dir.path().join("x.openpbr.json").exists());
     // An output equal to the input is refused and the input left as it was.

@@ -32,7 +32,7 @@ pub struct ExportArgs {
     #[arg(long, value_parser = ["gltf", "openpbr", "mtlx", "wgsl", "glsl"])]
     pub format: String,
     /// Output file (`.gltf`/`.glb`, `.json`, `.mtlx`, `.wgsl` or `.glsl`; `-` for standard
-    /// output with wgsl/glsl).
+    /// output with openpbr, mtlx, wgsl and glsl).
     #[arg(long)]
     pub out: PathBuf,
     /// gltf: add a UV sphere with the material, a camera and a directional light of π lux.
@@ -147,6 +147,13 @@ fn gltf(a: &ExportArgs) -> Result<()> {
         .out
         .file_stem()
         .map_or_else(|| "material".into(), |s| s.to_string_lossy().into_owned());
+    if a.out.as_os_str() == "-" {
+        return Err(lumifit::Error::invalid(
+            "--out",
+            "'-' with --format gltf; a glTF is written to a file (its OpenPBR JSON goes beside it); --format openpbr or mtlx can write to standard output",
+        )
+        .into());
+    }
     let openpbr_path = a.out.with_file_name(format!("{stem}.openpbr.json"));
     out.declare("--out", &a.out)?;
     out.declare("--out (OpenPBR beside it)", &openpbr_path)?;
@@ -240,6 +247,9 @@ fn openpbr(a: &ExportArgs) -> Result<()> {
     };
     out.stage_text(&a.out, &text)?;
     out.commit()?;
+    if a.out.as_os_str() == "-" {
+        return Ok(());
+    }
     emit(&serde_json::to_string_pretty(&json!({
         "preset": file,
         "format": a.format,
