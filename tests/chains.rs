@@ -718,3 +718,81 @@ fn default_synthetic_frames_fit_back_to_table1_through_the_default_commands() {
         );
     }
 }
+
+/// A decay preset whose Λ is 30× the charging curves' units (another camera scale, written into
+/// both Λ and the decay-fit amplitudes, so the Λ check cannot see it) cannot be reconciled by any
+/// r(0) ≤ 1 of its flat charge: `fit-excitation` exits 2 naming the units, nothing written.
+#[test]
+fn fit_excitation_refuses_a_decay_preset_in_other_units_than_its_charging_curves() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (emission, truth) = green_paint_sample(d);
+    ok(&lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        &truth,
+        "--exposure-s",
+        "0.01",
+        "--seed",
+        "51",
+        "--curve-only",
+        "--out",
+        &p(d, "decay"),
+    ]));
+    ok(&lumifit(&[
+        "phos",
+        "fit-decay",
+        &p(d, "decay/curve.csv"),
+        "--spectrum",
+        &emission,
+        "--bands",
+        "8",
+        "--states",
+        "1",
+        "--out",
+        &p(d, "m.json"),
+    ]));
+    ok(&lumifit(&[
+        "synth",
+        "phos-excitation",
+        "--material",
+        &truth,
+        "--bands",
+        "3",
+        "--seed",
+        "52",
+        "--out",
+        &p(d, "ch.csv"),
+    ]));
+    let mut m = json_file(&d.join("m.json"));
+    let scale = |v: &mut serde_json::Value| {
+        for x in v.as_array_mut().unwrap() {
+            *x = serde_json::json!(x.as_f64().unwrap() * 30.0);
+        }
+    };
+    scale(&mut m["phosphorescence"]["states"][0]["lambda"]);
+    scale(&mut m["phosphorescence"]["decay_fit"]["states"][0]["channel_amplitudes"]);
+    write(d, "m30.json", serde_json::to_vec_pretty(&m).unwrap());
+    let o = lumifit(&[
+        "phos",
+        "fit-excitation",
+        "--material",
+        &p(d, "m30.json"),
+        "--data",
+        &p(d, "ch.csv"),
+        "--source",
+        &p(d, "ch.source.csv"),
+        "--camera",
+        &p(d, "ch.camera.csv"),
+        "--out",
+        &p(d, "x.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("disagree in scale") && e.contains("camera units"),
+        "{e}"
+    );
+    assert!(!d.join("x.json").exists());
+}

@@ -164,6 +164,48 @@ pub fn white_reflectance(arg: &str, grid_nm: &[f64]) -> Result<Vec<f64>> {
     Ok(v)
 }
 
+/// The files named on the command line with folders expanded: a file stays as given, a folder
+/// stands for its files whose extension is one of `extensions` (case-insensitive), sorted by
+/// name; other files in it are ignored.
+///
+/// # Errors
+/// [`Error::Io`] when a folder cannot be listed; [`Error::InvalidArgument`] naming the folder
+/// when it holds no such file.
+pub fn expand_folders(paths: &[PathBuf], extensions: &[&str]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if !p.is_dir() {
+            out.push(p.clone());
+            continue;
+        }
+        let entries = std::fs::read_dir(p).map_err(|e| Error::io(p, e))?;
+        let mut found: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|f| {
+                f.is_file()
+                    && f.extension()
+                        .is_some_and(|x| extensions.iter().any(|want| x.eq_ignore_ascii_case(want)))
+            })
+            .collect();
+        if found.is_empty() {
+            return Err(Error::invalid(
+                p.display().to_string(),
+                format!(
+                    "no input files in the folder; expected {}",
+                    extensions
+                        .iter()
+                        .map(|e| format!("*.{e}"))
+                        .collect::<Vec<_>>()
+                        .join(" or ")
+                ),
+            ));
+        }
+        found.sort();
+        out.extend(found);
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

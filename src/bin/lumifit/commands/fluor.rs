@@ -14,7 +14,7 @@ use lumifit::fluor::{
     Basis, BasisKind, DonaldsonMatrix, GridIlluminant, Method, OperatorMatrix, Reduction,
     ResampleOptions, WorkingGrid, DEFAULT_ILLUMINANTS, DEFAULT_METHODS,
 };
-use lumifit::io::sources::{file_of, resolve_basis};
+use lumifit::io::sources::{expand_folders, file_of, resolve_basis};
 use lumifit::io::{read_input, Outputs};
 use lumifit::plot::{fluor_chart_png, FluorChart};
 use lumifit::preset::fluorescence::{fluorescence_preset, fluorescence_section, ReductionRecord};
@@ -245,33 +245,7 @@ fn register_common(out: &mut Outputs, illuminants: &[String], bases: &[&str]) {
 /// The matrices named on the command line: files as given, folders expanded to their
 /// `*.bfc` / `*.csv` files (sorted by name).
 fn expand_matrices(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for p in paths {
-        if !p.is_dir() {
-            out.push(p.clone());
-            continue;
-        }
-        let entries = std::fs::read_dir(p)
-            .map_err(|e| anyhow::anyhow!("{}: cannot list the folder: {e}", p.display()))?;
-        let mut found: Vec<PathBuf> = entries
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|f| {
-                f.is_file()
-                    && f.extension().is_some_and(|x| {
-                        x.eq_ignore_ascii_case("bfc") || x.eq_ignore_ascii_case("csv")
-                    })
-            })
-            .collect();
-        if found.is_empty() {
-            anyhow::bail!(
-                "{}: no Donaldson matrices in the folder; expected *.bfc or *.csv files",
-                p.display()
-            );
-        }
-        found.sort();
-        out.extend(found);
-    }
-    Ok(out)
+    Ok(expand_folders(paths, &["bfc", "csv"])?)
 }
 
 /// `DIR/<stem>.json` for every matrix; two matrices with the same stem are refused.

@@ -327,8 +327,8 @@ fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
         || a.charging.is_some();
     if charging_given && (a.per_pixel || a.batch.is_some()) {
         bail!(
-            "--saturated/--charge-s/--charge-irradiance/--charging apply to one curve (a curve CSV \
-             or --roi), whose preset records the protocol; not to --batch or --per-pixel"
+            "--saturated/--charge-s/--charge-irradiance/--charging/--exposure-s apply to one curve \
+             (a curve CSV or --roi), whose preset records them; not to --batch or --per-pixel"
         );
     }
     if a.per_pixel || a.roi.is_some() || a.series.is_some() {
