@@ -9,4 +9,5 @@
 //!   comparison, excitation, design reports, synthetic charging images).
 
 pub mod acquisition;
+pub mod demo;
 pub mod phos;
