@@ -284,7 +284,7 @@ pub fn pixel_map_summary(
         "threads": threads,
         "maps": files,
         "format": "32-bit float TIFF, value repeated in R=G=B (spectrum_rgb.tif: r,g,b); NaN where a block could not be fitted; k1 is the fastest rate",
-        "weights": "relative: sigma_t = max(max_c y_c(t), 1e-2 * peak) per block",
+        "weights": "shot + read noise: sigma_t^2 = peak * (0.9 * max(max_c y_c(t), 0) + 0.1 * peak) per block",
     })
 }
 
