@@ -17,8 +17,16 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let mut outputs = Outputs::new();
     outputs.declare_dir("--out", &args.out)?;
     let command = format!("lumifit demo --out {}", args.out.display());
+    // A closed standard error (`lumifit demo 2>&1 | head`) must not stop the run.
     let progress = |s: &StageReport| {
-        eprintln!("[{:>6.2} s] {:<10} {}", s.seconds, s.key, s.summary);
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "[{:>6.2} s] {:<10} {}",
+            s.seconds,
+            s.key,
+            s.summary
+        );
     };
     let report = run_demo(&args.out, &command, &mut outputs, &progress)?;
     let written = outputs.commit()?;
