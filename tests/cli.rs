@@ -126,15 +126,9 @@ fn delta_e_prints_json() {
 #[test]
 fn convert_round_trips_lab_through_xyz() {
     let lab = json(&lumifit(&[
-        "color",
-        "convert",
-        "--from",
-        "xyz",
-        "--to",
-        "lab",
-        "--value",
-        "0.2,0.3,0.4",
+        "color", "convert", "--from", "xyz", "--to", "lab", "--value", "20,30,40",
     ]));
+    assert_eq!(lab["xyz_scale"], 100.0);
     let v: Vec<String> = lab["value"]
         .as_array()
         .unwrap()
@@ -151,9 +145,72 @@ fn convert_round_trips_lab_through_xyz() {
         "--value",
         &v.join(","),
     ]));
-    for (i, want) in [0.2, 0.3, 0.4].iter().enumerate() {
-        assert!((back["value"][i].as_f64().unwrap() - want).abs() < 1e-12);
+    for (i, want) in [20.0, 30.0, 40.0].iter().enumerate() {
+        assert!((back["value"][i].as_f64().unwrap() - want).abs() < 1e-10);
     }
+}
+
+#[test]
+fn convert_takes_xyz_on_the_scale_color_xyz_prints_and_names_the_other() {
+    // Y = 30 on the 0–100 scale of `color xyz`: L* = 116·0.3^(1/3) − 16 = 61.6542 (the issue's
+    // 344 came from reading it on the 0–1 scale).
+    let o = lumifit(&[
+        "color", "convert", "--from", "xyz", "--to", "lab", "--value", "20,30,40",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).is_empty(), "{}", stderr(&o));
+    let l = json(&o)["value"][0].as_f64().unwrap();
+    assert!((l - 61.6542).abs() < 1e-3, "L* = {l}");
+    // The same colour on colour's 0–1 scale gives the same L*.
+    let v = json(&lumifit(&[
+        "color",
+        "convert",
+        "--from",
+        "xyz",
+        "--to",
+        "lab",
+        "--value",
+        "0.2,0.3,0.4",
+        "--scale",
+        "1",
+    ]));
+    assert!((v["value"][0].as_f64().unwrap() - l).abs() < 1e-9);
+    // The old mistake is named: 0–100 numbers with --scale 1, or 0–1 numbers without it.
+    let o = lumifit(&[
+        "color", "convert", "--from", "xyz", "--to", "lab", "--value", "20,30,40", "--scale", "1",
+    ]);
+    assert!(stderr(&o).contains("drop --scale 1"), "{}", stderr(&o));
+    let o = lumifit(&[
+        "color",
+        "convert",
+        "--from",
+        "xyz",
+        "--to",
+        "lab",
+        "--value",
+        "0.2,0.3,0.4",
+    ]);
+    assert!(stderr(&o).contains("add --scale 1"), "{}", stderr(&o));
+    // xyY's Y is on the same scale, in and out.
+    let v = json(&lumifit(&[
+        "color", "convert", "--from", "lab", "--to", "xyy", "--value", "100,0,0",
+    ]));
+    assert!(
+        (v["value"][2].as_f64().unwrap() - 100.0).abs() < 1e-9,
+        "{v}"
+    );
+    // A negative Y is refused.
+    let o = lumifit(&[
+        "color",
+        "convert",
+        "--from",
+        "xyz",
+        "--to",
+        "lab",
+        "--value",
+        "20,-30,40",
+    ]);
+    assert_rejected(&o, &["--value", "negative"]);
 }
 
 #[test]
@@ -356,4 +413,110 @@ fn daylight_and_blackbody_illuminants_are_built_from_a_temperature() {
         "daylight:2000",
     ]);
     assert_rejected(&o, &["2000 K", "4000–25000 K"]);
+}
+
+#[test]
+fn old_flag_spellings_still_work_for_one_release_and_warn() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "flat.csv",
+        "wavelength_nm,value\n380,0.5\n500,0.5\n780,0.5\n",
+    );
+    let new = lumifit(&[
+        "color",
+        "xyz",
+        "--spectrum",
+        p.to_str().unwrap(),
+        "--method",
+        "integration",
+    ]);
+    assert!(new.status.success(), "{}", stderr(&new));
+    assert!(!stderr(&new).contains("deprecated"), "{}", stderr(&new));
+    let old = lumifit(&[
+        "color",
+        "xyz",
+        "--sd",
+        p.to_str().unwrap(),
+        "--method",
+        "integration",
+    ]);
+    assert!(old.status.success(), "{}", stderr(&old));
+    assert_eq!(json(&old)["XYZ"], json(&new)["XYZ"]);
+    let e = stderr(&old);
+    assert!(
+        e.contains("--sd is deprecated") && e.contains("use --spectrum"),
+        "{e}"
+    );
+    let table = dir.path().join("t.csv");
+    let o = lumifit(&[
+        "color",
+        "table",
+        "--sds",
+        p.to_str().unwrap(),
+        "--method",
+        "integration",
+        "--out",
+        table.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("use --spectra"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_series_folder_means_its_manifest_and_extract_defaults_to_the_whole_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("s");
+    let o = lumifit(&[
+        "synth",
+        "phos-decay",
+        "--material",
+        "green_paint",
+        "--size",
+        "8x6",
+        "--frames",
+        "4",
+        "--seed",
+        "1",
+        "--out",
+        s.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The folder holds manifest.csv: its times (0, 5, 10, 15 s) are used, not EXIF order.
+    let o = lumifit(&["series", "inspect", s.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let times: Vec<f64> = json(&o)
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["time_s"].as_f64().unwrap())
+        .collect();
+    assert_eq!(times, [0.0, 5.0, 10.0, 15.0]);
+    // No --roi: the whole 8×6 frame.
+    let c = dir.path().join("c.csv");
+    let o = lumifit(&[
+        "series",
+        "extract",
+        s.to_str().unwrap(),
+        "--out",
+        c.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&c).unwrap();
+    let row: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(row[7], "48", "n_pixels of the whole frame: {text}");
+    // A manifest whose first column is named `image` (as the charging CSVs) reads the same.
+    let m = std::fs::read_to_string(s.join("manifest.csv")).unwrap();
+    assert!(m.starts_with("file,"), "{m}");
+    std::fs::write(s.join("manifest.csv"), m.replacen("file,", "image,", 1)).unwrap();
+    let c2 = dir.path().join("c2.csv");
+    let o = lumifit(&[
+        "series",
+        "extract",
+        &format!("{}/manifest.csv", s.display()),
+        "--out",
+        c2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&c2).unwrap(), text);
 }

@@ -222,7 +222,10 @@ pub fn parse_manifest(bytes: &[u8], source: &str, base: &Path) -> Result<Vec<Man
     const HEADER: &str = "file,time_s[,exposure_s,iso,f_number]";
     let text = crate::table::as_text(bytes, source, &format!("a CSV manifest {HEADER}"))?;
     let t = ManifestTable::parse(text, source, HEADER)?;
-    let (Some(i_file), Some(i_time)) = (t.column("file"), t.column("time_s")) else {
+    // `image` is accepted as the first column's name too (the charging and captures CSVs use
+    // it; docs/conventions.md).
+    let i_file = t.column("file").or_else(|| t.column("image"));
+    let (Some(i_file), Some(i_time)) = (i_file, t.column("time_s")) else {
         return Err(Error::parse(
             source,
             t.header_line,

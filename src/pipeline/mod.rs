@@ -10,5 +10,6 @@
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 
 pub mod acquisition;
+pub mod demo;
 pub mod phos;
 pub mod phos_maps;

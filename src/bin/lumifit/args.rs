@@ -58,7 +58,9 @@ pub enum Command {
     /// Material and light presets.
     #[command(subcommand)]
     Preset(PresetCommand),
-    /// ColorChecker colorimetry on the bundled data: a table, a chart and 24 reflectance presets.
+    /// Run every pipeline end to end on synthesised or bundled data (LVF, phosphorescence,
+    /// fluorescence, dispersion, afterimage, photometric light, colour) into one folder with an
+    /// index.html showing every plot and linking every preset.
     Demo(DemoArgs),
 }
 
@@ -81,8 +83,9 @@ pub enum ColorCommand {
 
 #[derive(Debug, Args)]
 pub struct XyzArgs {
-    /// Spectrum CSV with a header row `wavelength_nm,value`; `-` reads standard input.
-    #[arg(long, value_name = "FILE.csv")]
+    /// Spectrum CSV with a header row `wavelength_nm,value`; `-` reads standard input
+    /// (`--sd` is the deprecated spelling).
+    #[arg(long = "spectrum", alias = "sd", value_name = "FILE.csv")]
     pub sd: PathBuf,
     /// Illuminant: a CIE name (A, C, D50, D55, D60, D65, D75, E, FL1–FL12, HP1–HP5, LED-B1–LED-B5),
     /// `daylight:<CCT>` (CIE D-series, 4000–25000 K), `blackbody:<T>` (Planck), or a CSV file
@@ -103,8 +106,9 @@ pub struct XyzArgs {
 
 #[derive(Debug, Args)]
 pub struct TableArgs {
-    /// Spectra CSV: `wavelength_nm` then one column per spectrum; `-` reads standard input.
-    #[arg(long, value_name = "FILE.csv")]
+    /// Spectra CSV: `wavelength_nm` then one column per spectrum; `-` reads standard input
+    /// (`--sds` is the deprecated spelling).
+    #[arg(long = "spectra", alias = "sds", value_name = "FILE.csv")]
     pub sds: PathBuf,
     /// Illuminant: a CIE name, `daylight:<CCT>`, `blackbody:<T>` or a CSV file `wavelength_nm,value`.
     #[arg(long, default_value = "D65", value_name = "NAME|FILE.csv")]
@@ -141,9 +145,14 @@ pub struct ConvertArgs {
     /// Output representation.
     #[arg(long, value_parser = ["xyz", "xyy", "lab", "lch", "srgb", "linear-srgb"])]
     pub to: String,
-    /// The colour as three comma-separated numbers (XYZ and xyY's Y on the 0–1 scale).
+    /// The colour as three comma-separated numbers (XYZ and xyY's Y on the scale of --scale).
     #[arg(long, value_name = "a,b,c", allow_hyphen_values = true)]
     pub value: String,
+    /// Scale of XYZ and of xyY's Y, in and out: 100 (Y = 100 for the reference white, as
+    /// `color xyz` and `color table` print and colour.sd_to_XYZ returns) or 1 (colour's
+    /// "reference" scale of its conversion functions).
+    #[arg(long, default_value = "100", value_parser = ["100", "1"])]
+    pub scale: String,
     /// Reference white for Lab/LCh and for adapting to sRGB's D65 (CAT02): a CIE illuminant name.
     #[arg(long, default_value = "D65")]
     pub white: String,
@@ -162,7 +171,7 @@ pub enum PresetCommand {
 
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Output directory (created if missing).
+    /// Output directory (created with everything at the end, only if every stage succeeded).
     #[arg(long, default_value = "lumifit-demo")]
     pub out: PathBuf,
 }

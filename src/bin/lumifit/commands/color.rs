@@ -128,9 +128,16 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
     let v = parse_triplet("--value", &a.value)?;
     let w = white_xy(&a.white)?;
     let srgb = RgbSpace::from_name("srgb")?;
+    let scale: f64 = if a.scale == "1" { 1.0 } else { 100.0 };
+    if matches!(a.from.as_str(), "xyz" | "xyy") {
+        let y = if a.from == "xyz" { v[1] } else { v[2] };
+        for w in lumifit::colorimetry::xyz_scale_warnings(&a.from, y, scale)? {
+            eprintln!("warning: --value {}: {w}", a.value);
+        }
+    }
     let xyz = match a.from.as_str() {
-        "xyz" => v,
-        "xyy" => xyy_to_xyz(v),
+        "xyz" => v.map(|c| c / scale),
+        "xyy" => xyy_to_xyz([v[0], v[1], v[2] / scale]),
         "lab" => lab_to_xyz(v, w)?,
         "lch" => lab_to_xyz(lch_to_lab(v), w)?,
         "srgb" => rgb_to_xyz(v, w, &srgb, Some(Cat::Cat02), true)?,
@@ -138,8 +145,11 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
         other => anyhow::bail!("--from: unknown representation '{other}'"),
     };
     let out = match a.to.as_str() {
-        "xyz" => xyz,
-        "xyy" => xyz_to_xyy(xyz, w),
+        "xyz" => xyz.map(|c| c * scale),
+        "xyy" => {
+            let [x, y, big_y] = xyz_to_xyy(xyz, w);
+            [x, y, big_y * scale]
+        }
         "lab" => xyz_to_lab(xyz, w)?,
         "lch" => lab_to_lch(xyz_to_lab(xyz, w)?),
         "srgb" => xyz_to_rgb(xyz, w, &srgb, Some(Cat::Cat02), true)?,
@@ -152,7 +162,7 @@ pub fn convert(a: &ConvertArgs) -> Result<()> {
         &out,
     )?;
     emit(
-        &serde_json::json!({ "from": a.from, "to": a.to, "input": v, "value": out, "white": a.white, "white_xy": w })
+        &serde_json::json!({ "from": a.from, "to": a.to, "input": v, "value": out, "xyz_scale": scale, "white": a.white, "white_xy": w })
             .to_string(),
     )
 }

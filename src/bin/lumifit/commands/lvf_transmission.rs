@@ -45,8 +45,9 @@ pub struct TransmissionArgs {
     /// Gel table (Lee layout `code,name,<nm>…` or `wavelength_nm,<code>…`).
     #[arg(long)]
     pub filters: Option<PathBuf>,
-    /// Light source: a CIE name (LED-B3, D65 …), daylight:<K>, blackbody:<K> or a CSV.
-    #[arg(long)]
+    /// Light source: a CIE name (LED-B3, D65 …), daylight:<K>, blackbody:<K> or a CSV
+    /// (`--source` is the deprecated spelling).
+    #[arg(long = "illuminant", alias = "source")]
     pub source: Option<String>,
     /// Target reflectance CSV wavelength_nm,value.
     #[arg(long)]

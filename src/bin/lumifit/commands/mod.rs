@@ -52,8 +52,43 @@ pub enum PhosCommands {
     Excitation(phos_excitation::PhosExcitationCommand),
 }
 
+/// Old flag spellings still accepted as clap aliases for one release (docs/conventions.md):
+/// (command path, old flag, new flag).
+const DEPRECATED_FLAGS: [(&[&str], &str, &str); 3] = [
+    (&["color", "xyz"], "--sd", "--spectrum"),
+    (&["color", "table"], "--sds", "--spectra"),
+    (&["lvf", "transmission"], "--source", "--illuminant"),
+];
+
+/// One warning per deprecated flag spelling in `args` (the process arguments, program name
+/// first), naming the new spelling.
+pub fn deprecated_flag_warnings(args: &[String]) -> Vec<String> {
+    let words: Vec<&str> = args.iter().skip(1).map(String::as_str).collect();
+    let mut out = Vec::new();
+    for (path, old, new) in DEPRECATED_FLAGS {
+        let is_command = words.len() >= path.len() && words[..path.len()] == *path;
+        if !is_command {
+            continue;
+        }
+        let used = words[path.len()..]
+            .iter()
+            .take_while(|w| **w != "--")
+            .any(|w| *w == old || w.starts_with(&format!("{old}=")));
+        if used {
+            out.push(format!(
+                "{} {old} is deprecated and will be removed in the next release; use {new}",
+                path.join(" ")
+            ));
+        }
+    }
+    out
+}
+
 /// Dispatches a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
+    for w in deprecated_flag_warnings(&std::env::args().collect::<Vec<_>>()) {
+        eprintln!("warning: {w}");
+    }
     match cli.command {
         Command::Color(ColorCommand::Xyz(a)) => color::xyz(&a),
         Command::Color(ColorCommand::Table(a)) => color::table(&a),

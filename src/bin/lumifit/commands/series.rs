@@ -25,7 +25,9 @@ pub enum SeriesCommand {
 /// Where the series comes from.
 #[derive(Debug, Args)]
 pub struct SeriesArgs {
-    /// Manifest CSV (file,time_s[,exposure_s,iso,f_number]) or a folder of frames (ordered by EXIF capture time).
+    /// Manifest CSV (file,time_s[,exposure_s,iso,f_number]; the first column may also be named
+    /// image) or a folder: its manifest.csv when it has one, else its frames ordered by EXIF
+    /// capture time.
     pub series: PathBuf,
     /// Time 0 for a folder series, as a capture time `YYYY:MM:DD HH:MM:SS[.sss]` (default: first frame).
     #[arg(long)]
@@ -50,8 +52,9 @@ pub struct InspectArgs {
 pub struct ExtractArgs {
     #[command(flatten)]
     pub series: SeriesArgs,
-    /// Rectangle x,y,w,h in the source image's pixels (for RAW: the full-resolution image).
-    #[arg(long, conflicts_with = "mask", required_unless_present = "mask")]
+    /// Rectangle x,y,w,h in the source image's pixels (for RAW: the full-resolution image);
+    /// default: the whole frame.
+    #[arg(long, conflicts_with = "mask")]
     pub roi: Option<String>,
     /// Mask image of the source image's size; non-zero pixels are inside.
     #[arg(long)]
@@ -70,9 +73,21 @@ pub fn run(cmd: SeriesCommand) -> Result<()> {
 }
 
 /// Registers the series' manifest, frames and darks as inputs; returns the number of frames.
+/// The series to read: a folder that holds a `manifest.csv` means that manifest (its times and
+/// exposures), as `synth phos-decay --out DIR` writes it; any other folder is read by EXIF time.
+fn series_path(a: &SeriesArgs) -> PathBuf {
+    let m = a.series.join("manifest.csv");
+    if a.series.is_dir() && m.is_file() {
+        m
+    } else {
+        a.series.clone()
+    }
+}
+
 fn register(a: &SeriesArgs, out: &mut Outputs) -> Result<usize> {
-    let frames = series_frame_files(&a.series)?;
-    out.input(&a.series).inputs(&frames).inputs(&a.dark);
+    let path = series_path(a);
+    let frames = series_frame_files(&path)?;
+    out.input(&path).inputs(&frames).inputs(&a.dark);
     Ok(frames.len())
 }
 
@@ -88,9 +103,10 @@ fn load(a: &SeriesArgs, n_frames: usize) -> Result<LoadedSeries> {
         darks: a.dark.clone(),
     };
     let bar = super::progress_bar(n_frames, "decoding", "frames");
-    let loaded = load_series(&a.series, &options, &|| bar.inc(1));
+    let path = series_path(a);
+    let loaded = load_series(&path, &options, &|| bar.inc(1));
     bar.finish_and_clear();
-    let loaded = loaded.with_context(|| format!("loading series {}", a.series.display()))?;
+    let loaded = loaded.with_context(|| format!("loading series {}", path.display()))?;
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
@@ -158,11 +174,21 @@ fn extract(a: &ExtractArgs) -> Result<()> {
     out.inputs(&a.mask);
     out.declare("--out", &a.out)?;
     let roi = match (&a.roi, &a.mask) {
-        (Some(r), _) => Roi::parse_rect(r)?,
-        (None, Some(m)) => read_mask(m)?,
-        (None, None) => anyhow::bail!("give --roi x,y,w,h or --mask FILE"),
+        (Some(r), _) => Some(Roi::parse_rect(r)?),
+        (None, Some(m)) => Some(read_mask(m)?),
+        (None, None) => None,
     };
     let loaded = load(&a.series, n)?;
+    let roi = match roi {
+        Some(r) => r,
+        None => {
+            let Some(first) = loaded.series.frames().first() else {
+                anyhow::bail!("{}: no frames", a.series.series.display());
+            };
+            let (w, h) = first.frame.source_size();
+            Roi::Rect { x: 0, y: 0, w, h }
+        }
+    };
     let curve = loaded.series.extract(&roi)?;
     out.stage(&a.out, curve_csv(&curve).as_bytes())?;
     out.commit()?;
