@@ -172,3 +172,21 @@ pub mod shader_export {
     /// twins must agree with the f64 library to 1e-6 relative (issue 17's bound).
     pub const TWIN_REL_TOL: f64 = 1e-6;
 }
+
+pub mod preset_preview {
+    /// The preview's phosphorescence numbers are the twin's f32 update and emission; against
+    /// the library's f64 ODE they agree to f32 rounding through one exp and a few sums (the
+    /// same bound as the twins' own test, issue 17's 1e-6 relative).
+    pub const TWIN_REL_TOL: f64 = 1e-6;
+    /// Absolute floor for emissions that decayed to ~1e-13 (relative error of a number that
+    /// small is f32 denormal noise, not a disagreement).
+    pub const EMISSION_ABS_FLOOR: f64 = 1e-12;
+    /// The preview's K-basis ΔE00 and `fluor eval`'s: the same f64 formula on the same numbers
+    /// (the preset stores P, T and S with round-trip floats); only the order of the sums of
+    /// the matrix products differs.
+    pub const SAME_FORMULA_DE: f64 = 1e-9;
+    /// The twin's ΔE00 (f32 RGB matrix, no channel clamped) against `fluor eval`'s f64 XYZ
+    /// result: XYZ relative error ~1e-7 moves CIEDE2000 by ~1e-5 per unit of chroma slope; 1e-2
+    /// leaves margin for saturated colours where ΔE00 is steep.
+    pub const TWIN_DE: f64 = 1e-2;
+}
