@@ -387,11 +387,50 @@ fn a_preset_without_a_previewable_section_is_exit_2_naming_the_file_and_writes_n
         ],
     );
     assert!(!Path::new(&out).exists());
-    // a light preset: not a material
-    let light = root().join("fixtures/presets/valid_light.json");
-    let o = lumifit(&["preset", "preview", &light.to_string_lossy(), "--out", &out]);
-    assert_rejected(&o, &["valid_light.json", "lumifit.light/1"]);
-    assert!(!Path::new(&out).exists());
+}
+
+/// A Lambertian emitter, I(γ) = 1000 cos γ cd (the photometry tests' file).
+const LAMBERT_IES: &str = "IES:LM-63-2019\n[TEST] t\nTILT=NONE\n1 -1 1 7 1 1 2 1 1 0\n1 1.00001 0\n0 15 30 45 60 75 90\n0\n1000 965.9258262890683 866.0254037844387 707.1067811865476 500.0000000000001 258.8190451025207 0\n";
+
+#[test]
+fn a_light_preset_lights_the_floor_with_the_cubature_illuminance() {
+    let dir = tempfile::tempdir().unwrap();
+    let ies = common::write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let preset = p(dir.path(), "light.json");
+    ok(&lumifit(&[
+        "light",
+        "preset",
+        &ies.to_string_lossy(),
+        "--rect",
+        "0.1,0.1",
+        "--out",
+        &preset,
+    ]));
+    let report = p(dir.path(), "r.json");
+    ok(&lumifit(&[
+        "preset",
+        "preview",
+        &preset,
+        "--size",
+        "48",
+        "--out",
+        &p(dir.path(), "light.png"),
+        "--report",
+        &report,
+    ]));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let l = &v["preview"]["photometric"];
+    // straight below a small emitter of I0 = 1000 cd at 4 m: E ≈ I0/d² = 62.5 lx. The 0.1 m
+    // square is seen from the foot at γ ≤ 1.01°, where the grid's linear interpolation between
+    // 0° and 15° lowers I by ≤ (1000 − 965.9)·1.01/15 = 0.23 %; (a/d)² terms are 6e-4.
+    let foot = l["e_foot_lux"].as_f64().unwrap();
+    assert!((foot / 62.5 - 1.0).abs() < LIGHT_FOOT_REL, "{foot}");
+    let max = l["e_max_plan_lux"].as_f64().unwrap();
+    assert!(
+        max <= foot * (1.0 + 1e-9) && max > 0.95 * foot,
+        "{max} vs {foot}"
+    );
+    assert_eq!(v["preview"]["rendered"], serde_json::json!(["photometric"]));
 }
 
 #[test]

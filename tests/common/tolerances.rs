@@ -186,7 +186,13 @@ pub mod preset_preview {
     /// the matrix products differs.
     pub const SAME_FORMULA_DE: f64 = 1e-9;
     /// The twin's ΔE00 (f32 RGB matrix, no channel clamped) against `fluor eval`'s f64 XYZ
-    /// result: XYZ relative error ~1e-7 moves CIEDE2000 by ~1e-5 per unit of chroma slope; 1e-2
-    /// leaves margin for saturated colours where ΔE00 is steep.
+    /// result. In Rec. 2020 (M⁻¹ the exact inverse of M) only f32 rounding separates them
+    /// (seen: ≤ 1e-4). In sRGB the space's two matrices are IEC 61966-2-1's rounded pair, inverse
+    /// only to ~1e-4, and light goes XYZ → RGB → (M P M⁻¹) → XYZ through both: XYZ moves by
+    /// ~1e-4 relative, ΔE00 by up to 4e-3 (synthetic matrix). 1e-2 covers both.
     pub const TWIN_DE: f64 = 1e-2;
+    /// Illuminance under a 0.1 m Lambertian square at 4 m against I0/d²: the grid's linear
+    /// interpolation of cos γ over the ≤ 1.01° the square subtends lowers I by ≤ 0.23 %, the
+    /// finite size adds ~6e-4 (seen: −0.17 %).
+    pub const LIGHT_FOOT_REL: f64 = 3e-3;
 }

@@ -19,10 +19,14 @@
 //!   screen, rendered with the preset's wavelength samples beside the 1 nm spectral reference
 //!   ([`crate::dispersion::prism`]), with the ΔE00 along the screen.
 //!
-//! A light preset or a material without any of these sections is an error naming the file and
-//! what was expected.
+//! - **photometric light** ([`light`], a `lumifit.light/1` preset): the light hung above the
+//!   scene, the illuminance of the library's cubature on the sphere and the floor, and the
+//!   floor's illuminance from above in false colour.
+//!
+//! A material without any of these sections is an error naming the file and what was expected.
 
 pub mod fluor;
+pub mod light;
 pub mod phosphor;
 pub mod prism;
 
@@ -33,7 +37,7 @@ use crate::error::{Error, Result};
 use crate::fluor::DonaldsonMatrix;
 use crate::render::{Light, Scene, Sheet};
 
-use super::types::{MaterialPreset, Preset};
+use super::types::{LightPreset, MaterialPreset, Preset};
 
 /// Which light the lit panels use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -106,6 +110,9 @@ pub struct PreviewReport {
     /// The dispersion row.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dispersion: Option<prism::PrismReport>,
+    /// The photometric light row (light presets).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub photometric: Option<light::LightReport>,
 }
 
 /// A rendered preview: the sheet of panels and the report.
@@ -165,18 +172,43 @@ fn check_options(o: &PreviewOptions) -> Result<()> {
 /// A light preset, or a material preset with none of phosphorescence, fluorescence, dispersion
 /// (naming `file` and the sections it has); bad options; numbers that overflow.
 pub fn preview(preset: &Preset, file: &str, options: &PreviewOptions) -> Result<Preview> {
-    let material = match preset {
-        Preset::Material(m) => m,
-        Preset::Light(_) => {
-            return Err(Error::invalid(
-                format!("{file}: schema"),
-                "a lumifit.light/1 preset; the preview renders material presets with a \
-                 phosphorescence, fluorescence or dispersion section (a light preset's preview \
-                 is not implemented yet)",
-            ))
-        }
-    };
-    preview_material(material, file, options)
+    match preset {
+        Preset::Material(m) => preview_material(m, file, options),
+        Preset::Light(l) => preview_light(l, file, options),
+    }
+}
+
+/// The preview of a light preset (see [`light`]).
+pub fn preview_light(
+    preset: &LightPreset,
+    file: &str,
+    options: &PreviewOptions,
+) -> Result<Preview> {
+    check_options(options)?;
+    let (row, r) = light::light_row(preset, file, options)?;
+    Ok(Preview {
+        sheet: Sheet {
+            title: format!("{} — lumifit preset preview", preset.name),
+            rows: vec![row],
+            notes: vec![
+                r.note.clone(),
+                "Sphere (radius 1 m, reflectance 0.8) on a floor (0.5); radiance ρE/π; one exposure; sRGB."
+                    .into(),
+            ],
+        },
+        report: PreviewReport {
+            name: preset.name.clone(),
+            rendered: vec!["photometric"],
+            not_rendered: Vec::new(),
+            size_px: options.size_px,
+            light: "the preset's photometric light",
+            ambient: 0.0,
+            phosphorescence: None,
+            fluorescence: None,
+            dispersion: None,
+            photometric: Some(r),
+        },
+    })
 }
 
 /// The preview of a material preset (see [`preview`]).
@@ -220,6 +252,7 @@ pub fn preview_material(
         phosphorescence: None,
         fluorescence: None,
         dispersion: None,
+        photometric: None,
     };
     if let Some(section) = &preset.phosphorescence {
         let (row, r) = phosphor::phosphor_row(preset, section, options)
@@ -245,11 +278,13 @@ pub fn preview_material(
         report.dispersion = Some(r);
         rendered.push("dispersion");
     }
-    notes.push(format!(
-        "Sphere (radius 1) on a grey floor (reflectance 0.5), {} light, ambient {} of its \
+    if preset.phosphorescence.is_some() || preset.fluorescence.is_some() {
+        notes.push(format!(
+            "Sphere (radius 1) on a grey floor (reflectance 0.5), {} light, ambient {} of its \
          irradiance; 3×3 samples per pixel; hue-preserving clip, sRGB.",
-        report.light, report.ambient
-    ));
+            report.light, report.ambient
+        ));
+    }
     report.not_rendered = preset
         .sections()
         .into_iter()
