@@ -57,21 +57,37 @@ fn wrap(text: &str, size_px: f64, max_px: u32) -> Result<Vec<String>> {
 /// A sheet larger than the plot size limit, or a drawing/encoding failure.
 pub fn preview_sheet_png(sheet: &Sheet) -> Result<Vec<u8>> {
     let width = sheet.rows.iter().map(row_width).max().unwrap_or(0).max(640) + 2 * MARGIN;
-    let mut height = MARGIN + 2 * LINE;
+    // Captions wrapped to their panel's width: (title lines, further lines) per panel.
+    let mut captions: Vec<Vec<(Vec<String>, Vec<String>)>> = Vec::new();
     for row in &sheet.rows {
-        let img_h = row
-            .panels
+        let mut r = Vec::new();
+        for p in &row.panels {
+            let cap_w = (p.image.width as u32).max(40);
+            let title = wrap(&p.title, CAPTION_PX, cap_w)?;
+            let mut lines = Vec::new();
+            for l in &p.lines {
+                lines.extend(wrap(l, CAPTION_PX - 1.0, cap_w)?);
+            }
+            r.push((title, lines));
+        }
+        captions.push(r);
+    }
+    let img_height = |row: &crate::render::SheetRow| -> u32 {
+        row.panels
             .iter()
             .map(|p| p.image.height as u32)
             .max()
-            .unwrap_or(0);
-        let lines = row
-            .panels
-            .iter()
-            .map(|p| 1 + p.lines.len() as u32)
+            .unwrap_or(0)
+    };
+    let caption_lines = |caps: &[(Vec<String>, Vec<String>)]| -> u32 {
+        caps.iter()
+            .map(|(t, l)| (t.len() + l.len()) as u32)
             .max()
-            .unwrap_or(0);
-        height += LINE + 6 + img_h + 4 + lines * LINE + GAP;
+            .unwrap_or(0)
+    };
+    let mut height = MARGIN + 2 * LINE;
+    for (row, caps) in sheet.rows.iter().zip(&captions) {
+        height += LINE + 6 + img_height(row) + 4 + caption_lines(caps) * LINE + GAP;
     }
     let mut notes = Vec::new();
     for n in &sheet.notes {
@@ -88,7 +104,7 @@ pub fn preview_sheet_png(sheet: &Sheet) -> Result<Vec<u8>> {
             TextSpec::new(TITLE_PX, INK, HPos::Left, VPos::Top),
         )?;
         let mut y = MARGIN + 2 * LINE;
-        for row in &sheet.rows {
+        for (row, caps) in sheet.rows.iter().zip(&captions) {
             let heading = fit_text(&area, &row.heading, HEADING_PX, text_w)?;
             draw_text(
                 &area,
@@ -97,15 +113,9 @@ pub fn preview_sheet_png(sheet: &Sheet) -> Result<Vec<u8>> {
                 TextSpec::new(HEADING_PX, INK, HPos::Left, VPos::Top),
             )?;
             y += LINE + 6;
-            let img_h = row
-                .panels
-                .iter()
-                .map(|p| p.image.height as u32)
-                .max()
-                .unwrap_or(0);
+            let img_h = img_height(row);
             let mut x = MARGIN;
-            let mut max_lines = 0;
-            for p in &row.panels {
+            for (p, (title_lines, cap_lines)) in row.panels.iter().zip(caps) {
                 let (w, h) = (p.image.width, p.image.height);
                 for py in 0..h {
                     for px in 0..w {
@@ -120,27 +130,23 @@ pub fn preview_sheet_png(sheet: &Sheet) -> Result<Vec<u8>> {
                 }
                 let mut ty = (y + img_h + 4) as i32;
                 let cap_w = (w as u32).max(40);
-                let t = fit_text(&area, &p.title, CAPTION_PX, cap_w)?;
-                draw_text(
-                    &area,
-                    &t,
-                    (x as i32, ty),
-                    TextSpec::new(CAPTION_PX, INK, HPos::Left, VPos::Top),
-                )?;
-                for l in &p.lines {
+                let styled = title_lines
+                    .iter()
+                    .map(|t| (t, TextSpec::new(CAPTION_PX, INK, HPos::Left, VPos::Top)))
+                    .chain(cap_lines.iter().map(|t| {
+                        (
+                            t,
+                            TextSpec::new(CAPTION_PX - 1.0, MUTED_INK, HPos::Left, VPos::Top),
+                        )
+                    }));
+                for (t, spec) in styled {
+                    let t = fit_text(&area, t, spec.size_px, cap_w)?;
+                    draw_text(&area, &t, (x as i32, ty), spec)?;
                     ty += LINE as i32;
-                    let t = fit_text(&area, l, CAPTION_PX - 1.0, cap_w)?;
-                    draw_text(
-                        &area,
-                        &t,
-                        (x as i32, ty),
-                        TextSpec::new(CAPTION_PX - 1.0, MUTED_INK, HPos::Left, VPos::Top),
-                    )?;
                 }
-                max_lines = max_lines.max(1 + p.lines.len() as u32);
                 x += w as u32 + GAP;
             }
-            y += img_h + 4 + max_lines * LINE + GAP;
+            y += img_h + 4 + caption_lines(caps) * LINE + GAP;
         }
         for n in &notes {
             let t = fit_text(&area, n, NOTE_PX, text_w)?;

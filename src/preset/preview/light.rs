@@ -197,8 +197,8 @@ pub fn light_row(
                 height: size,
                 bytes: bar,
             },
-            title: "E/Emax".into(),
-            lines: vec!["0–1".into()],
+            title: "E".into(),
+            lines: vec!["0 to max".into()],
         },
     ];
     let note = format!(
