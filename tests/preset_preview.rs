@@ -122,14 +122,12 @@ fn check_glow_against_library(preset: &MaterialPreset, charge_s: Option<f64>) {
         let rgb: Vec<f64> = (0..3)
             .map(|c| l.iter().zip(&bm).map(|(lb, col)| lb * col[c]).sum())
             .collect();
-        for c in 0..3 {
+        for (c, (twin, lib)) in f.emission_rgb.iter().zip(&rgb).enumerate() {
             assert!(
-                close(f.emission_rgb[c], rgb[c], TWIN_REL_TOL, EMISSION_ABS_FLOOR),
-                "{}: t = {} s channel {c}: twin {} vs library {}",
+                close(*twin, *lib, TWIN_REL_TOL, EMISSION_ABS_FLOOR),
+                "{}: t = {} s channel {c}: twin {twin} vs library {lib}",
                 preset.name,
                 f.t_s,
-                f.emission_rgb[c],
-                rgb[c]
             );
         }
     }

@@ -149,7 +149,7 @@ pub fn section_setup(
 /// White XYZ (Y = 100) and the scale `k h = 100 / Σ ȳ e` of `e` under the XYZ basis.
 fn white_of(e: &GridIlluminant, xyz: &Basis) -> Result<([f64; 3], f64)> {
     let w = xyz.functions().transpose() * DVector::from_column_slice(&e.values);
-    if !(w[1] > 0.0) {
+    if w[1].is_nan() || w[1] <= 0.0 {
         return Err(Error::invalid(
             "illuminant",
             format!("'{}' has no power where ȳ is non-zero", e.name),
