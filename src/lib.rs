@@ -6,7 +6,7 @@
 //! | layer | modules |
 //! |---|---|
 //! | L0 | [`error`], [`limits`], [`math`], [`table`], [`calib`] |
-//! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`] |
+//! | L1 | [`spectrum`], [`colorimetry`], [`fit`], [`capture`], [`render`] (a pure ray caster for previews) |
 //! | L2 | [`afterimage`], [`dispersion`], [`fluor`], [`phosphor`], [`lvf`], [`recovery`], [`photometry`] |
 //! | L3 | [`io`], [`preset`], [`plot`], [`pipeline`] |
 //!
@@ -30,6 +30,7 @@ pub mod pipeline;
 pub mod plot;
 pub mod preset;
 pub mod recovery;
+pub mod render;
 pub mod spectrum;
 pub mod table;
 

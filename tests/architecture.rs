@@ -19,6 +19,7 @@ fn layer(module: &str) -> Option<f64> {
         "calib" => 0.2,
         "spectrum" | "fit" | "capture" => 1.0,
         "colorimetry" => 1.1,
+        "render" => 1.2,
         "lvf" | "recovery" | "phosphor" | "fluor" | "dispersion" | "photometry" | "afterimage" => {
             2.0
         }

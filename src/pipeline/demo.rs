@@ -925,10 +925,13 @@ fn dispersion_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         )?,
     )?);
     let rel = "dispersion/n-bk7.preset.json";
-    let doc = material_gltf(&preset, rel, ExportOptions::default())?;
+    let opts = ExportOptions {
+        scene: crate::preset::export::Scene::Sphere,
+        ..ExportOptions::default()
+    };
+    let doc = material_gltf(&preset, rel, &opts)?;
     r.presets.push(ctx.put_preset(rel, preset)?);
-    let gltf =
-        serde_json::to_string_pretty(&doc).map_err(|e| Error::invalid("glTF", e.to_string()))?;
+    let gltf = doc.to_gltf()?;
     r.presets
         .push(ctx.put("dispersion/n-bk7.gltf", gltf.as_bytes())?);
     let derived = serde_json::to_value(&fitted.derived).unwrap_or_default();

@@ -38,6 +38,7 @@ mod phosphor;
 mod phosphor_excitation;
 pub mod phosphor_sim;
 pub mod photometry;
+pub mod preview;
 pub mod recovery;
 mod spectra;
 mod text;

@@ -34,6 +34,7 @@ mod file;
 pub mod fluorescence;
 pub mod phosphor;
 pub mod photometric;
+pub mod preview;
 mod provenance;
 pub mod shader;
 mod types;

@@ -184,3 +184,27 @@ pub mod gltf_export {
     /// The same Eq. 16 product computed twice in f64: rounding only.
     pub const MATRIX_TOL: f64 = 1e-12;
 }
+
+pub mod preset_preview {
+    /// The preview's phosphorescence numbers are the twin's f32 update and emission; against
+    /// the library's f64 ODE they agree to f32 rounding through one exp and a few sums (the
+    /// same bound as the twins' own test, issue 17's 1e-6 relative).
+    pub const TWIN_REL_TOL: f64 = 1e-6;
+    /// Absolute floor for emissions that decayed to ~1e-13 (relative error of a number that
+    /// small is f32 denormal noise, not a disagreement).
+    pub const EMISSION_ABS_FLOOR: f64 = 1e-12;
+    /// The preview's K-basis ΔE00 and `fluor eval`'s: the same f64 formula on the same numbers
+    /// (the preset stores P, T and S with round-trip floats); only the order of the sums of
+    /// the matrix products differs.
+    pub const SAME_FORMULA_DE: f64 = 1e-9;
+    /// The twin's ΔE00 (f32 RGB matrix, no channel clamped) against `fluor eval`'s f64 XYZ
+    /// result. In Rec. 2020 (M⁻¹ the exact inverse of M) only f32 rounding separates them
+    /// (seen: ≤ 1e-4). In sRGB the space's two matrices are IEC 61966-2-1's rounded pair, inverse
+    /// only to ~1e-4, and light goes XYZ → RGB → (M P M⁻¹) → XYZ through both: XYZ moves by
+    /// ~1e-4 relative, ΔE00 by up to 4e-3 (synthetic matrix). 1e-2 covers both.
+    pub const TWIN_DE: f64 = 1e-2;
+    /// Illuminance under a 0.1 m Lambertian square at 4 m against I0/d²: the grid's linear
+    /// interpolation of cos γ over the ≤ 1.01° the square subtends lowers I by ≤ 0.23 %, the
+    /// finite size adds ~6e-4 (seen: −0.17 %).
+    pub const LIGHT_FOOT_REL: f64 = 3e-3;
+}

@@ -167,6 +167,8 @@ pub enum PresetCommand {
     },
     /// Export a preset to a renderer format (glTF 2.0 material, OpenPBR parameters).
     Export(Box<crate::commands::preset_export::ExportArgs>),
+    /// Render a reference preview PNG of a preset through the shader twins (sphere on a floor).
+    Preview(crate::commands::preset_preview::PreviewArgs),
 }
 
 #[derive(Debug, Args)]

@@ -13,6 +13,7 @@ pub mod phos;
 pub mod phos_excitation;
 pub mod preset;
 pub mod preset_export;
+pub mod preset_preview;
 pub mod series;
 pub mod spectrum;
 pub mod synth;
@@ -99,6 +100,7 @@ pub fn run(cli: Cli) -> Result<()> {
             emit(&serde_json::to_string_pretty(&report)?)
         }
         Command::Preset(PresetCommand::Export(a)) => preset_export::run(&a),
+        Command::Preset(PresetCommand::Preview(a)) => preset_preview::run(&a),
         Command::Dispersion(c) => dispersion::run(c),
         Command::Fluor(c) => fluor::run(c),
         Command::Light(c) => light::run(c),
