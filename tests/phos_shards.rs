@@ -38,10 +38,14 @@ fn series(dir: &Path) -> String {
 }
 
 fn tifs(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    tifs_ext(dir, "tif")
+}
+
+fn tifs_ext(dir: &Path, ext: &str) -> Vec<(String, Vec<u8>)> {
     let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "tif"))
+        .filter(|p| p.extension().is_some_and(|e| e == ext))
         .map(|p| {
             (
                 p.file_name().unwrap().to_string_lossy().to_string(),
@@ -108,6 +112,33 @@ fn four_merged_shards_are_byte_identical_to_a_single_run_and_bad_shards_are_refu
             x == y,
             "{name} differs between the single run and the merge"
         );
+    }
+    // the 16-bit previews too, and the preset that references the maps
+    let (pa, pb) = (
+        tifs_ext(&Path::new(&single).join("previews"), "png"),
+        tifs_ext(&Path::new(&merged).join("previews"), "png"),
+    );
+    assert_eq!(pa.len(), 11);
+    assert!(pa == pb, "the previews differ");
+    for dir in [&single, &merged] {
+        let preset = Path::new(dir).join("preset.json");
+        let m = lumifit::preset::read_material(&preset).unwrap();
+        let ph = m.phosphorescence.unwrap();
+        let tex = &ph.extra["maps"]["textures"];
+        for plane in ["k1_per_s", "a1", "n_states", "rms", "spectrum_rgb"] {
+            let t = tex[plane]["texture"].as_str().unwrap();
+            assert!(Path::new(dir).join(t).is_file(), "{plane}: {t}");
+            assert!(tex[plane]["meaning"]
+                .as_str()
+                .is_some_and(|s| !s.is_empty()));
+        }
+        assert_eq!(tex["k1_per_s"]["unit"], "1/s");
+        let prev = tex["k1_per_s"]["preview"].as_str().unwrap();
+        let img = image::open(Path::new(dir).join(prev)).unwrap();
+        assert_eq!(img.color(), image::ColorType::L16);
+        // the median fastest rate of the halves series is green paint's 0.227 /s
+        let k1 = ph.states[0].k_r_per_s;
+        assert!((k1 / 0.227 - 1.0).abs() < 0.05, "{k1}");
     }
     let summary: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(Path::new(&merged).join("summary.json")).unwrap(),

@@ -973,7 +973,7 @@ pub fn material_files(
         let px: Vec<u8> = m.labels.iter().map(|l| *l as u8).collect();
         encode_png(w, h, &px, image::ExtendedColorType::L8)?
     } else {
-        let px: Vec<u8> = m.labels.iter().flat_map(|l| l.to_be_bytes()).collect();
+        let px: Vec<u8> = m.labels.iter().flat_map(|l| l.to_ne_bytes()).collect();
         encode_png(w, h, &px, image::ExtendedColorType::L16)?
     };
     files.push(("materials.png".into(), png));
@@ -1006,4 +1006,146 @@ fn encode_png(w: u32, h: u32, px: &[u8], ty: image::ExtendedColorType) -> Result
         .write_image(px, w, h, ty)
         .map_err(|e| Error::invalid("PNG", format!("encoding failed: {e}")))?;
     Ok(out.into_inner())
+}
+
+/// Meaning and unit of each plane ([`PLANE_NAMES`] order), for the preset and the previews.
+pub const PLANE_MEANING: [(&str, &str); MAP_PLANES] = [
+    (
+        "fastest decay rate k1 (NaN where the block has no state)",
+        "1/s",
+    ),
+    (
+        "second decay rate k2 (NaN where the block has fewer than 2 states)",
+        "1/s",
+    ),
+    (
+        "third decay rate k3 (NaN where the block has fewer than 3 states)",
+        "1/s",
+    ),
+    (
+        "amplitude a1 of state 1 at switch-off per unit spectrum",
+        "relative radiance",
+    ),
+    (
+        "amplitude a2 of state 2 at switch-off per unit spectrum",
+        "relative radiance",
+    ),
+    (
+        "amplitude a3 of state 3 at switch-off per unit spectrum",
+        "relative radiance",
+    ),
+    (
+        "shared emission spectrum, red channel (largest channel 1)",
+        "",
+    ),
+    (
+        "shared emission spectrum, green channel (largest channel 1)",
+        "",
+    ),
+    (
+        "shared emission spectrum, blue channel (largest channel 1)",
+        "",
+    ),
+    ("number of states chosen (0 where the fit failed)", ""),
+    ("residual RMS of the fit", "relative radiance"),
+];
+
+/// The renderer-facing files of a map set: a 16-bit PNG preview with a colour bar per plane
+/// (`previews/<plane>.png`, [`crate::plot::maps`]) and `preset.json`, a material preset whose
+/// phosphorescence section holds the median states (Λ_i,c = a_i·S_c/k_i over RGB bands) and
+/// whose `maps` block references every map — texture path relative to the preset, preview, its
+/// grey-level range, meaning and unit. `provenance_files` are hashed into the preset's
+/// provenance. The preset is left out (and `None` returned as its name) when no block was fitted.
+///
+/// # Errors
+/// Drawing, encoding and hashing errors.
+pub fn map_extras(
+    maps: &PixelMaps,
+    name: &str,
+    provenance_files: &[PathBuf],
+) -> Result<(Vec<(String, Vec<u8>)>, Option<String>)> {
+    use crate::plot::maps::{map_preview_png, MapPreview};
+    use crate::preset::{
+        phosphor::provenance_of_files, to_json_string, Bands, MaterialPreset,
+        PhosphorescenceSection, PhosphorescentState,
+    };
+    let mut files = Vec::new();
+    let mut refs = serde_json::Map::new();
+    for (p, (plane, values)) in PLANE_NAMES.iter().zip(maps.planes()).enumerate() {
+        let (meaning, unit) = PLANE_MEANING[p];
+        let range = (*plane == "n_states").then_some((0.0, 3.0));
+        let r = map_preview_png(&MapPreview {
+            title: plane,
+            unit,
+            values,
+            width: maps.width,
+            height: maps.height,
+            range,
+        })?;
+        let preview = format!("previews/{plane}.png");
+        files.push((preview.clone(), r.png));
+        refs.insert(
+            (*plane).into(),
+            serde_json::json!({
+                "texture": format!("{plane}.tif"), "meaning": meaning, "unit": unit,
+                "preview": preview, "preview_range": [r.range.0, r.range.1],
+                "preview_scale": format!("grey v (16-bit) = {} + ({} - {})·v/65535; 1 preview px = {f}×{f} blocks", r.range.0, r.range.1, r.range.0, f = r.factor),
+            }),
+        );
+    }
+    refs.insert(
+        "spectrum_rgb".into(),
+        serde_json::json!({"texture": "spectrum_rgb.tif", "meaning": "shared emission spectrum r, g, b (largest channel 1)", "unit": ""}),
+    );
+    let median = |v: &[f32]| -> Option<f64> {
+        let mut x: Vec<f32> = v.iter().cloned().filter(|x| x.is_finite()).collect();
+        if x.is_empty() {
+            return None;
+        }
+        x.sort_by(f32::total_cmp);
+        Some(f64::from(x[x.len() / 2]))
+    };
+    let n_med = median(&maps.n_states).unwrap_or(0.0).round() as usize;
+    let spectrum: Option<Vec<f64>> = (0..3).map(|c| median(&maps.spectrum[c])).collect();
+    let states: Option<Vec<PhosphorescentState>> = (0..n_med
+        .min(crate::phosphor::maps::MAP_STATES))
+        .map(|i| {
+            let (k, a) = (median(&maps.k_per_s[i])?, median(&maps.amplitude[i])?);
+            let s = spectrum.as_ref()?;
+            (k > 0.0)
+                .then(|| PhosphorescentState::new(k, None, s.iter().map(|v| a * v / k).collect()))
+        })
+        .collect();
+    let states = states.filter(|s| {
+        !s.is_empty()
+            && s.iter()
+                .all(|st| st.lambda.iter().all(|l| l.is_finite() && *l >= 0.0))
+    });
+    let Some(states) = states else {
+        return Ok((files, None));
+    };
+    let provenance = provenance_of_files("lumifit phos fit-decay --per-pixel", provenance_files)?
+        .with_fit_quality(serde_json::json!({
+            "blocks": maps.width * maps.height, "fitted": maps.n_fitted, "failed": maps.n_failed,
+        }));
+    let mut preset = MaterialPreset::new(name.to_string(), provenance);
+    let mut extra = serde_json::Map::new();
+    extra.insert(
+        "maps".into(),
+        serde_json::json!({
+            "meaning": "per-block parameter maps of this material; the states above are the medians over the blocks (n_states = median number of states); a renderer that wants the spatial variation reads the textures",
+            "paths": "relative to this preset",
+            "format": "32-bit float TIFF, value repeated in R=G=B (spectrum_rgb.tif: r,g,b); NaN where a block could not be fitted",
+            "size_blocks": [maps.width, maps.height], "block_px": maps.block,
+            "emission": "L_c(x, t) = spectrum_c(x) * sum_i a_i(x) * exp(-k_i(x) * t), relative radiance after switch-off",
+            "textures": refs,
+        }),
+    );
+    preset.phosphorescence = Some(PhosphorescenceSection {
+        bands: Bands::Rgb,
+        states,
+        extra,
+    });
+    files.push(("preset.json".into(), to_json_string(&preset)?.into_bytes()));
+    Ok((files, Some("preset.json".into())))
 }

@@ -34,6 +34,7 @@ pub mod dispersion;
 mod fluor;
 mod lvf;
 pub mod lvf_bands;
+pub mod maps;
 mod phosphor;
 mod phosphor_excitation;
 pub mod phosphor_sim;

@@ -678,6 +678,12 @@ fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Re
             names.push(name.to_string());
             Ok(())
         })?;
+        let name = a.name.clone().unwrap_or_else(|| "per-pixel maps".into());
+        let (extras, _) = pipe_maps::map_extras(&run.maps, &name, &[series_path.to_path_buf()])?;
+        for (name, bytes) in extras {
+            out.stage(a.out.join(&name), &bytes)?;
+            names.push(name);
+        }
     }
     let blocks = run.maps.width * run.maps.height;
     let timing = serde_json::json!({
@@ -720,6 +726,16 @@ fn merge_maps(a: &MergeMapsArgs) -> Result<()> {
         names.push(name.to_string());
         Ok(())
     })?;
+    let manifests: Vec<PathBuf> = a
+        .shards
+        .iter()
+        .map(|d| d.join(pipe_maps::SHARD_MANIFEST))
+        .collect();
+    let (extras, _) = pipe_maps::map_extras(&merged.maps, "per-pixel maps", &manifests)?;
+    for (name, bytes) in extras {
+        out.stage(a.out.join(&name), &bytes)?;
+        names.push(name);
+    }
     let m0 = &merged.manifests[0];
     let timing = serde_json::json!({
         "shard_seconds": merged.manifests.iter().map(|m| m.seconds).collect::<Vec<_>>(),
