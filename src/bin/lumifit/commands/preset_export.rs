@@ -40,6 +40,12 @@ pub struct ExportArgs {
 
 /// Runs the export.
 pub fn run(a: &ExportArgs) -> Result<()> {
+    if a.format == "gltf" {
+        // a lumifit.light/1 preset: the photometric light (commands/light.rs)
+        if let lumifit::preset::Preset::Light(l) = lumifit::preset::read_preset(&a.preset)? {
+            return super::light::export_preset_gltf(&a.preset, &l, &a.out);
+        }
+    }
     if a.format == "wgsl" || a.format == "glsl" {
         return snippets(a);
     }
