@@ -215,7 +215,7 @@ fn a_hundred_thousand_mutated_files_never_panic_and_every_error_names_file_and_l
     let schedule: Vec<usize> = bases
         .iter()
         .enumerate()
-        .flat_map(|(k, b)| std::iter::repeat(k).take((8000 / b.2.len().max(1)).clamp(1, 10)))
+        .flat_map(|(k, b)| std::iter::repeat_n(k, (8000 / b.2.len().max(1)).clamp(1, 10)))
         .collect();
     for round in 0..MUTATIONS {
         let k = schedule[round % schedule.len()];

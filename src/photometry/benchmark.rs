@@ -102,7 +102,7 @@ impl Default for BenchmarkSpec {
             image_size_m: 4.0,
             resolution_px: 64,
             rect_m: (1.0, 1.0),
-            adaptive_tolerance: 0.01,
+            adaptive_tolerance: 0.1,
             noise_fraction: 0.1,
             pilot_replicates: 4,
             max_rounds: 8,
