@@ -520,3 +520,73 @@ fn preset_export_gltf_of_a_light_preset_writes_the_same_node_as_light_preset_and
         "{report}"
     );
 }
+
+#[test]
+fn illuminance_interp_bicubic_follows_the_cosine_between_fifteen_degree_nodes() {
+    // LAMBERT_IES stores 1000 cos γ at 15° steps. A receiver seen at γ = 7.5° from the light's
+    // centre: `point` reads I(7.5°) once. Bilinear gives the chord (0.86 % low); the cubic
+    // Hermite follows cos γ to within 1e-4 (its error is O(h⁴)).
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let g = 7.5f64.to_radians();
+    let x = g.tan();
+    let pts = write(
+        dir.path(),
+        "pts.csv",
+        format!("x,y,z,nx,ny,nz\n{x},0,0,0,0,1\n"),
+    );
+    let mut e = Vec::new();
+    for interp in ["bilinear", "bicubic"] {
+        let out = p(dir.path(), &format!("e_{interp}.csv"));
+        let o = lumifit(&[
+            "light",
+            "illuminance",
+            f.to_str().unwrap(),
+            "--rect",
+            "1,1",
+            "--center",
+            "0,0,1",
+            "--normal",
+            "0,0,-1",
+            "--up",
+            "1,0,0",
+            "--points",
+            pts.to_str().unwrap(),
+            "--method",
+            "point",
+            "--interp",
+            interp,
+            "--out",
+            &out,
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let text = std::fs::read_to_string(&out).unwrap();
+        let row = text.lines().nth(1).unwrap();
+        e.push(row.split(',').nth(6).unwrap().parse::<f64>().unwrap());
+    }
+    let r2 = 1.0 + x * x;
+    let exact = 1000.0 * g.cos() * g.cos() / r2;
+    let (bl, bc) = (e[0] / exact - 1.0, e[1] / exact - 1.0);
+    assert!(bl < -0.008, "bilinear {bl}");
+    assert!(bc.abs() < 1e-4, "bicubic {bc}");
+    let o = lumifit(&[
+        "light",
+        "illuminance",
+        f.to_str().unwrap(),
+        "--rect",
+        "1,1",
+        "--center",
+        "0,0,1",
+        "--normal",
+        "0,0,-1",
+        "--up",
+        "1,0,0",
+        "--points",
+        pts.to_str().unwrap(),
+        "--interp",
+        "spline",
+        "--out",
+        &p(dir.path(), "x.csv"),
+    ]);
+    assert_rejected(&o, &["--interp"]);
+}
