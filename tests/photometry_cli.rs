@@ -5,6 +5,9 @@ mod common;
 
 use common::{assert_rejected, lumifit, p, write};
 
+/// Serialises the runs of `scripts/validate_gltf.sh` within this test binary.
+static VALIDATOR: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 const LAMBERT_IES: &str = "IES:LM-63-2019\n[TEST] t\nTILT=NONE\n1 -1 1 7 1 1 2 1 1 0\n1 1.00001 0\n0 15 30 45 60 75 90\n0\n1000 965.9258262890683 866.0254037844387 707.1067811865476 500.0000000000001 258.8190451025207 0\n";
 
 #[test]
@@ -406,6 +409,8 @@ fn light_preset_gltf_of_every_type_c_data_file_passes_the_khronos_validator_and_
         return;
     }
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
+    // one validator at a time: its first run installs it with `npm ci`, which must not race
+    let _one = VALIDATOR.lock().unwrap_or_else(|e| e.into_inner());
     let o = std::process::Command::new("bash")
         .arg(script)
         .args(&gltfs)
@@ -422,4 +427,166 @@ fn light_preset_gltf_of_every_type_c_data_file_passes_the_khronos_validator_and_
         gltfs.len(),
         "{report}"
     );
+}
+
+#[test]
+fn preset_export_gltf_of_a_light_preset_writes_the_same_node_as_light_preset_and_passes_the_validator(
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let ies = p(dir.path(), "asym.ies");
+    let o = lumifit(&["light", "synth", "--profile", "asymmetric", "--out", &ies]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    // light preset --gltf in its default frame …
+    let json = p(dir.path(), "asym.json");
+    let direct = dir.path().join("direct/light.gltf");
+    std::fs::create_dir_all(direct.parent().unwrap()).unwrap();
+    let o = lumifit(&[
+        "light",
+        "preset",
+        &ies,
+        "--out",
+        &json,
+        "--gltf",
+        direct.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    // … and preset export of that preset
+    let exported = dir.path().join("export/light.gltf");
+    let o = lumifit(&[
+        "preset",
+        "export",
+        &json,
+        "--format",
+        "gltf",
+        "--out",
+        exported.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let read = |p: &std::path::Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&direct), read(&exported));
+    assert_eq!(
+        a["nodes"], b["nodes"],
+        "node (placement, rotation, extensions)"
+    );
+    assert_eq!(a["extensions"], b["extensions"]);
+    // the IES beside it holds the same (mirrored) grid as the one light preset wrote
+    let ga = lumifit::io::read_photometric(&dir.path().join("direct/light.ies"), 0.0).unwrap();
+    let gb = lumifit::io::read_photometric(&dir.path().join("export/light.ies"), 0.0).unwrap();
+    assert_eq!(ga.photometry.grid, gb.photometry.grid);
+    // a broken light preset is refused naming the field, nothing written
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    v["photometric"]["emitter_rect_m"] = serde_json::json!([0.0, 1.0]);
+    let bad = common::write(dir.path(), "bad.json", serde_json::to_string(&v).unwrap());
+    let out = dir.path().join("bad/x.gltf");
+    let o = lumifit(&[
+        "preset",
+        "export",
+        bad.to_str().unwrap(),
+        "--format",
+        "gltf",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_rejected(&o, &["bad.json", "emitter_rect_m"]);
+    assert!(!out.exists() && !dir.path().join("bad/x.ies").exists());
+    if std::process::Command::new("node")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        eprintln!("SKIPPED: node is not installed; the Khronos glTF validator did not run");
+        return;
+    }
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
+    // one validator at a time: its first run installs it with `npm ci`, which must not race
+    let _one = VALIDATOR.lock().unwrap_or_else(|e| e.into_inner());
+    let o = std::process::Command::new("bash")
+        .arg(script)
+        .arg(&exported)
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "validator: {report}{}",
+        common::stderr(&o)
+    );
+    assert_eq!(
+        report.matches(" 0 errors, 0 warnings").count(),
+        1,
+        "{report}"
+    );
+}
+
+#[test]
+fn illuminance_interp_bicubic_follows_the_cosine_between_fifteen_degree_nodes() {
+    // LAMBERT_IES stores 1000 cos γ at 15° steps. A receiver seen at γ = 7.5° from the light's
+    // centre: `point` reads I(7.5°) once. Bilinear gives the chord (0.86 % low); the cubic
+    // Hermite follows cos γ to within 1e-4 (its error is O(h⁴)).
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(dir.path(), "lambert.ies", LAMBERT_IES);
+    let g = 7.5f64.to_radians();
+    let x = g.tan();
+    let pts = write(
+        dir.path(),
+        "pts.csv",
+        format!("x,y,z,nx,ny,nz\n{x},0,0,0,0,1\n"),
+    );
+    let mut e = Vec::new();
+    for interp in ["bilinear", "bicubic"] {
+        let out = p(dir.path(), &format!("e_{interp}.csv"));
+        let o = lumifit(&[
+            "light",
+            "illuminance",
+            f.to_str().unwrap(),
+            "--rect",
+            "1,1",
+            "--center",
+            "0,0,1",
+            "--normal",
+            "0,0,-1",
+            "--up",
+            "1,0,0",
+            "--points",
+            pts.to_str().unwrap(),
+            "--method",
+            "point",
+            "--interp",
+            interp,
+            "--out",
+            &out,
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let text = std::fs::read_to_string(&out).unwrap();
+        let row = text.lines().nth(1).unwrap();
+        e.push(row.split(',').nth(6).unwrap().parse::<f64>().unwrap());
+    }
+    let r2 = 1.0 + x * x;
+    let exact = 1000.0 * g.cos() * g.cos() / r2;
+    let (bl, bc) = (e[0] / exact - 1.0, e[1] / exact - 1.0);
+    assert!(bl < -0.008, "bilinear {bl}");
+    assert!(bc.abs() < 1e-4, "bicubic {bc}");
+    let o = lumifit(&[
+        "light",
+        "illuminance",
+        f.to_str().unwrap(),
+        "--rect",
+        "1,1",
+        "--center",
+        "0,0,1",
+        "--normal",
+        "0,0,-1",
+        "--up",
+        "1,0,0",
+        "--points",
+        pts.to_str().unwrap(),
+        "--interp",
+        "spline",
+        "--out",
+        &p(dir.path(), "x.csv"),
+    ]);
+    assert_rejected(&o, &["--interp"]);
 }

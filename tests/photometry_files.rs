@@ -533,7 +533,7 @@ fn gltf_export_aims_the_node_down_its_normal_and_writes_an_ies_that_lights_the_s
     let light =
         RectLight::new([1.0, 2.0, 3.0], [0.0, 0.6, -0.8], [1.0, 0.0, 0.0], 0.6, 0.3).unwrap();
     let (doc, ies) =
-        lumifit::preset::photometric::gltf_light(&f, &light, "asym", "asym.ies").unwrap();
+        lumifit::preset::export::light::gltf_light(&f, &light, "asym", "asym.ies").unwrap();
     assert_eq!(doc["asset"]["version"], "2.0");
     assert_eq!(doc["nodes"][0]["extensions"]["EXT_lights_ies"]["light"], 0);
     assert_eq!(

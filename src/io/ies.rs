@@ -41,6 +41,7 @@ struct Tokens<'a> {
     toks: Vec<(&'a str, usize)>,
     pos: usize,
     source: String,
+    end_line: usize,
 }
 
 impl<'a> Tokens<'a> {
@@ -58,11 +59,13 @@ impl<'a> Tokens<'a> {
             toks,
             pos: 0,
             source: source.to_string(),
+            // the last line of the file (the line before `first_line` when nothing follows)
+            end_line: (first_line + lines.len()).saturating_sub(1).max(1),
         }
     }
 
     fn last_line(&self) -> usize {
-        self.toks.last().map(|t| t.1).unwrap_or(0)
+        self.toks.last().map(|t| t.1).unwrap_or(self.end_line)
     }
 
     fn f64(&mut self, field: &str) -> Result<f64> {
@@ -288,6 +291,12 @@ pub fn parse_ies(
         Tilt::None
     } else if tilt_value.eq_ignore_ascii_case("INCLUDE") {
         parse_tilt(&mut tok, "INCLUDE".into())?
+    } else if tilt_value.is_empty() {
+        return Err(Error::parse(
+            source,
+            tilt_idx + 1,
+            "'TILT=' names no file; expected TILT=NONE, TILT=INCLUDE or TILT=<file>",
+        ));
     } else {
         let (tb, tname) = tilt_file(tilt_value)?;
         let ttext = crate::table::as_text(&tb, &tname, "an LM-63 TILT file")?;

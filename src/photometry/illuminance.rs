@@ -319,6 +319,20 @@ fn point_method(light: &RectLight, grid: &CandelaGrid, r: &Receiver) -> Shade {
     }
 }
 
+/// The Monte Carlo integrand of E at the emitter point of local coordinates (a, b):
+/// I(ω) (ω_i·n_x)⁺ / r², whose mean over the rectangle is E (lux).
+pub fn area_sample(light: &RectLight, grid: &CandelaGrid, r: &Receiver, a: f64, b: f64) -> f64 {
+    let p = light.point(a, b);
+    let d = sub(r.p, p);
+    let d2 = dot(d, d);
+    if d2 > 0.0 {
+        let omega = scale(d, 1.0 / d2.sqrt());
+        light.intensity(grid, omega) * (-dot(omega, r.n)).max(0.0) / d2
+    } else {
+        0.0
+    }
+}
+
 fn mc_method(
     light: &RectLight,
     grid: &CandelaGrid,
@@ -331,15 +345,7 @@ fn mc_method(
     for _ in 0..samples {
         let a = (rng.uniform() - 0.5) * light.width_m;
         let b = (rng.uniform() - 0.5) * light.height_m;
-        let p = light.point(a, b);
-        let d = sub(r.p, p);
-        let d2 = dot(d, d);
-        let f = if d2 > 0.0 {
-            let omega = scale(d, 1.0 / d2.sqrt());
-            light.intensity(grid, omega) * (-dot(omega, r.n)).max(0.0) / d2
-        } else {
-            0.0
-        };
+        let f = area_sample(light, grid, r, a, b);
         s += f;
         s2 += f * f;
     }

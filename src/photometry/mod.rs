@@ -39,8 +39,10 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 
+pub mod benchmark;
 pub mod illuminance;
 pub mod luksch2020;
+pub mod synthetic;
 
 /// Photometric type (goniometer system), LM-63 field "photometric type" 3/2/1.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
@@ -100,6 +102,23 @@ pub struct CandelaGrid {
     pub v_deg: Vec<f64>,
     /// Intensities in cd, `cd[ih * v_deg.len() + iv]`.
     pub cd: Vec<f64>,
+    /// How [`CandelaGrid::intensity`] interpolates between the nodes (bilinear by default).
+    #[serde(skip)]
+    pub interp: Interp,
+}
+
+/// Interpolation of I(C, γ) between grid nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Interp {
+    /// Bilinear in the two angles (the node values exactly, linear between them).
+    #[default]
+    Bilinear,
+    /// Tensor-product cubic Hermite, C¹, with node slopes from the 5-point Lagrange derivative
+    /// (one-sided at the γ ends, periodic across C = 360°): equals the node values, reproduces
+    /// any polynomial of degree ≤ 3 in each angle exactly (the stencils are exact to degree 4),
+    /// and is clamped at 0 so ringing next to a dark region never gives negative candela.
+    Bicubic,
 }
 
 fn strictly_increasing(v: &[f64]) -> Option<usize> {
@@ -186,6 +205,7 @@ impl CandelaGrid {
             h_deg,
             v_deg,
             cd,
+            interp: Interp::Bilinear,
         })
     }
 
@@ -262,6 +282,9 @@ impl CandelaGrid {
     /// Type C, `h` wraps at 360°; outside the vertical range the intensity is 0. For Types A/B
     /// outside the horizontal range it is 0.
     pub fn intensity(&self, h: f64, v: f64) -> f64 {
+        if self.interp == Interp::Bicubic {
+            return self.intensity_bicubic(h, v);
+        }
         let nv = self.v_deg.len();
         let (iv0, tv) = match bracket(&self.v_deg, v) {
             Some(b) => b,
@@ -310,6 +333,81 @@ impl CandelaGrid {
             }
             None => 0.0,
         }
+    }
+
+    /// The grid with interpolation `interp`.
+    pub fn with_interp(mut self, interp: Interp) -> Self {
+        self.interp = interp;
+        self
+    }
+
+    /// [`Interp::Bicubic`] at (h, v) degrees; 0 outside the vertical range (and outside the
+    /// horizontal range for Types A/B), like the bilinear lookup.
+    fn intensity_bicubic(&self, h: f64, v: f64) -> f64 {
+        let nv = self.v_deg.len();
+        let Some((iv, tv)) = bracket(&self.v_deg, v) else {
+            return 0.0;
+        };
+        let column = |ih: usize| -> f64 {
+            if nv == 1 {
+                return self.at(ih, 0);
+            }
+            cubic_segment(
+                nv,
+                |k| self.v_deg[k as usize],
+                |k| self.at(ih, k as usize),
+                false,
+                iv,
+                tv,
+            )
+        };
+        let nh = self.h_deg.len();
+        if nh == 1 {
+            return if self.kind == PhotometricType::C || (h - self.h_deg[0]).abs() < 1e-9 {
+                column(0).max(0.0)
+            } else {
+                0.0
+            };
+        }
+        let periodic = self.kind == PhotometricType::C;
+        let (ih, th) = if periodic {
+            let mut c = h.rem_euclid(360.0);
+            let last = self.h_deg[nh - 1];
+            if c < self.h_deg[0] {
+                c += 360.0;
+            }
+            if c >= last {
+                let span = 360.0 + self.h_deg[0] - last;
+                (
+                    nh - 1,
+                    if span > 0.0 {
+                        ((c - last) / span).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    },
+                )
+            } else {
+                match bracket(&self.h_deg, c) {
+                    Some(b) => b,
+                    None => return 0.0,
+                }
+            }
+        } else {
+            match bracket(&self.h_deg, h) {
+                Some(b) => b,
+                None => return 0.0,
+            }
+        };
+        let n = nh as isize;
+        let value = cubic_segment(
+            nh,
+            |k| self.h_deg[k.rem_euclid(n) as usize] + 360.0 * k.div_euclid(n) as f64,
+            |k| column(k.rem_euclid(n) as usize),
+            periodic,
+            ih,
+            th,
+        );
+        value.max(0.0)
     }
 
     /// Intensity in the direction `d` of the luminaire frame (x = C0, y = C90, z up, nadir −z);
@@ -447,6 +545,73 @@ impl CandelaGrid {
 
 /// Index `i` and fraction `t` with `a[i] ≤ x ≤ a[i+1]`; a single-point axis matches only
 /// itself (t = 0). `None` outside the range.
+/// Cubic Hermite on the segment [x(i), x(i+1)] at fraction `t`, node slopes from the Lagrange
+/// derivative over 5 nodes (fewer when the axis has fewer): centred where possible, one-sided
+/// at the ends of a non-periodic axis; a periodic axis reads x(k), y(k) for any k (the caller
+/// unwraps). `n` nodes.
+fn cubic_segment(
+    n: usize,
+    x: impl Fn(isize) -> f64,
+    y: impl Fn(isize) -> f64,
+    periodic: bool,
+    i: usize,
+    t: f64,
+) -> f64 {
+    let i = i as isize;
+    let width = if periodic { 5 } else { n.min(5) } as isize;
+    let slope = |k: isize| -> f64 {
+        let start = if periodic {
+            k - 2
+        } else {
+            (k - width / 2).clamp(0, n as isize - width)
+        };
+        let mut buf = [0.0f64; 5];
+        for (b, j) in (start..start + width).enumerate() {
+            buf[b] = x(j);
+        }
+        let xs = &buf[..width as usize];
+        let xk = x(k);
+        let mut d = 0.0;
+        for (a, j) in (start..start + width).enumerate() {
+            let w = if j == k {
+                xs.iter()
+                    .enumerate()
+                    .filter(|&(b, _)| b != a)
+                    .map(|(_, &xm)| 1.0 / (xk - xm))
+                    .sum::<f64>()
+            } else {
+                let num: f64 = xs
+                    .iter()
+                    .enumerate()
+                    .filter(|&(b, _)| b != a && start + b as isize != k)
+                    .map(|(_, &xm)| xk - xm)
+                    .product();
+                let den: f64 = xs
+                    .iter()
+                    .enumerate()
+                    .filter(|&(b, _)| b != a)
+                    .map(|(_, &xm)| xs[a] - xm)
+                    .product();
+                num / den
+            };
+            d += w * y(j);
+        }
+        d
+    };
+    let (x0, x1) = (x(i), x(i + 1));
+    let h = x1 - x0;
+    let (y0, y1) = (y(i), y(i + 1));
+    if h <= 0.0 {
+        return y0;
+    }
+    let (m0, m1) = (slope(i), slope(i + 1));
+    let (t2, t3) = (t * t, t * t * t);
+    (2.0 * t3 - 3.0 * t2 + 1.0) * y0
+        + (t3 - 2.0 * t2 + t) * h * m0
+        + (-2.0 * t3 + 3.0 * t2) * y1
+        + (t3 - t2) * h * m1
+}
+
 fn bracket(a: &[f64], x: f64) -> Option<(usize, f64)> {
     let n = a.len();
     const E: f64 = 1e-9;
@@ -696,6 +861,82 @@ pub fn summary(p: &Photometry) -> PhotometrySummary {
 
 #[cfg(test)]
 mod tests {
+
+    fn cubic_grid() -> (CandelaGrid, impl Fn(f64, f64) -> f64) {
+        // a product of cubics in C and γ, positive on the grid
+        let f = |c: f64, g: f64| {
+            (1.0 + 0.01 * c - 2e-5 * c * c + 3e-8 * c * c * c)
+                * (2.0 + 0.02 * g + 1e-4 * g * g - 1e-6 * g * g * g)
+        };
+        let h: Vec<f64> = (0..24).map(|k| 15.0 * k as f64).collect();
+        // uneven γ steps, as in real files
+        let v: Vec<f64> = [0.0, 5.0, 10.0, 20.0, 30.0, 40.0, 55.0, 70.0, 80.0, 90.0].to_vec();
+        let cd: Vec<f64> = h
+            .iter()
+            .flat_map(|&c| v.iter().map(move |&g| f(c, g)))
+            .collect();
+        let grid = CandelaGrid::new(PhotometricType::C, h, v, cd)
+            .unwrap()
+            .with_interp(Interp::Bicubic);
+        (grid, f)
+    }
+
+    #[test]
+    fn bicubic_is_exact_on_cubic_in_angle_data_away_from_the_wrap_and_equals_the_nodes() {
+        let (grid, f) = cubic_grid();
+        // C stencils reach two planes either side: away from the 360° wrap they see the cubic
+        for k in 0..=200 {
+            let c = 30.0 + 270.0 * k as f64 / 200.0 * (285.0 - 30.0) / 270.0;
+            for m in 0..=45 {
+                let g = 2.0 * m as f64;
+                let (want, got) = (f(c, g), grid.intensity(c, g));
+                assert!(
+                    (got - want).abs() <= 1e-9 * want,
+                    "C {c} γ {g}: {got} vs {want}"
+                );
+            }
+        }
+        // the node values exactly, everywhere including across the wrap
+        for (ih, &c) in grid.h_deg.iter().enumerate() {
+            for (iv, &g) in grid.v_deg.iter().enumerate() {
+                assert_eq!(grid.intensity(c, g), grid.at(ih, iv));
+            }
+        }
+        // bilinear is not exact on the same data (the test can tell the two apart)
+        let bl = grid.clone().with_interp(Interp::Bilinear);
+        assert!((bl.intensity(100.0, 47.0) - f(100.0, 47.0)).abs() > 1e-4 * f(100.0, 47.0));
+    }
+
+    #[test]
+    fn bicubic_wraps_continuously_at_360_degrees_and_never_goes_below_zero() {
+        let (grid, _) = cubic_grid();
+        for g in [0.0, 12.0, 47.0, 90.0] {
+            let (a, b) = (grid.intensity(359.999_999, g), grid.intensity(0.0, g));
+            assert!((a - b).abs() < 1e-5 * b, "γ {g}: {a} vs {b}");
+            assert!((grid.intensity(-15.0, g) - grid.intensity(345.0, g)).abs() < 1e-12 * b);
+        }
+        // a hard cut-off (1000 cd to 20°, then 0) makes a cubic ring; the lookup stays ≥ 0
+        let v: Vec<f64> = (0..=36).map(|k| 2.5 * k as f64).collect();
+        let cd: Vec<f64> = v
+            .iter()
+            .map(|&g| if g <= 20.0 { 1000.0 } else { 0.0 })
+            .collect();
+        let spot = CandelaGrid::new(PhotometricType::C, vec![0.0], v, cd)
+            .unwrap()
+            .with_interp(Interp::Bicubic);
+        let mut min = f64::INFINITY;
+        for k in 0..=9000 {
+            min = min.min(spot.intensity(0.0, k as f64 * 0.01));
+        }
+        assert!(min >= 0.0, "{min}");
+        // and it does ring above (so the clamp is doing the work below)
+        let over = (0..=2000)
+            .map(|k| spot.intensity(0.0, k as f64 * 0.01))
+            .fold(0.0, f64::max);
+        assert!(over > 1000.0, "{over}");
+        // outside the vertical range it is 0 like the bilinear lookup
+        assert_eq!(spot.intensity(0.0, 120.0), 0.0);
+    }
     use super::*;
 
     fn lambertian(i0: f64) -> CandelaGrid {

@@ -159,3 +159,229 @@ pub fn polar_chart_png(grid: &CandelaGrid, title: &str) -> Result<Vec<u8>> {
         Ok(())
     })
 }
+
+/// Blue for "too dark", red for "too bright" (ColorBrewer RdBu ends).
+const TOO_DARK: [f64; 3] = [33.0, 102.0, 172.0];
+const TOO_BRIGHT: [f64; 3] = [178.0, 24.0, 43.0];
+
+/// Diverging colour of a signed difference `t` in units of the colour range (clipped to ±1):
+/// white at 0, red for t > 0 (too bright), blue for t < 0 (too dark).
+pub fn difference_colour(t: f64) -> RGBColor {
+    let t = if t.is_finite() {
+        t.clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let end = if t >= 0.0 { TOO_BRIGHT } else { TOO_DARK };
+    let a = t.abs();
+    let c = |k: usize| (255.0 + (end[k] - 255.0) * a).round() as u8;
+    RGBColor(c(0), c(1), c(2))
+}
+
+/// Reinhard tone map of an illuminance image: L = 0.18·E/Ē (Ē the log-average of the positive
+/// values), displayed as L/(1 + L) in grey.
+fn tone_map(values: &[f64], log_avg: f64) -> Vec<u8> {
+    values
+        .iter()
+        .map(|&e| {
+            let l = if log_avg > 0.0 {
+                0.18 * e.max(0.0) / log_avg
+            } else {
+                0.0
+            };
+            (255.0 * (l / (1.0 + l))).round() as u8
+        })
+        .collect()
+}
+
+/// Fig. 9-style figure of one profile and height: row 1 the MC reference (tone-mapped), then
+/// one row of false-colour differences (E − E_ref) per method, one column per orientation.
+/// Differences are in units of the largest reference illuminance of the height and saturate at
+/// ±`range` (e.g. 0.1 = ±10 % of the peak); a colour bar says so. Each row label carries the
+/// method's NRMS.
+pub fn benchmark_difference_png(
+    case: &crate::photometry::benchmark::CaseResult,
+    spec: &crate::photometry::benchmark::BenchmarkSpec,
+    range: f64,
+) -> Result<Vec<u8>> {
+    use crate::error::Error;
+    let n = spec.resolution_px;
+    if !(range > 0.0 && range.is_finite()) {
+        return Err(Error::invalid(
+            "--diff-range",
+            "expected a positive fraction",
+        ));
+    }
+    let Some(reference) = case.images.first() else {
+        return Err(Error::invalid("benchmark figure", "no reference image"));
+    };
+    let cols = reference.images.len();
+    if n == 0 || cols == 0 || reference.images.iter().any(|i| i.len() != n * n) {
+        return Err(Error::invalid(
+            "benchmark figure",
+            "images do not match the resolution",
+        ));
+    }
+    let zoom = (160 / n).clamp(1, 8);
+    let tile = (n * zoom) as i32;
+    let (left, top, gap, right, bottom) = (190i32, 78i32, 6i32, 175i32, 16i32);
+    let rows = case.images.len() as i32;
+    let width = left + cols as i32 * (tile + gap) + right;
+    let height = top + rows * (tile + gap) + bottom;
+    let peak = reference
+        .images
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, &v| m.max(v));
+    let positives: Vec<f64> = reference
+        .images
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|&v| v > 0.0)
+        .collect();
+    let log_avg = if positives.is_empty() {
+        0.0
+    } else {
+        (positives.iter().map(|v| v.ln()).sum::<f64>() / positives.len() as f64).exp()
+    };
+    let nrms_of = |label: &str| -> Option<f64> {
+        if let Some(k) = label.strip_prefix("mc ") {
+            let k: usize = k.parse().ok()?;
+            return case
+                .mc_ladder
+                .iter()
+                .find(|m| m.samples == Some(k))
+                .map(|m| m.nrms);
+        }
+        case.methods
+            .iter()
+            .find(|m| m.method == label)
+            .map(|m| m.nrms)
+    };
+    let title = format!(
+        "{} — h = {} m: E − E_ref in % of the peak {:.4} lx (red too bright, blue too dark)",
+        case.profile, case.height_m, peak
+    );
+    let orientations: Vec<String> = spec
+        .orientations_rad
+        .iter()
+        .map(|t| {
+            let f = t / std::f64::consts::PI;
+            match (f * 8.0).round() as i64 {
+                k if ((f * 8.0) - k as f64).abs() < 1e-9 => match k {
+                    8 => "θ = π".to_string(),
+                    4 => "θ = π/2".to_string(),
+                    6 => "θ = 3π/4".to_string(),
+                    k => format!("θ = {k}π/8"),
+                },
+                _ => format!("θ = {f:.3}π"),
+            }
+        })
+        .collect();
+    let labels: Vec<(String, String)> = case
+        .images
+        .iter()
+        .map(|m| {
+            let second = if m.label == "reference" {
+                format!("{:.0} samples/pt", case.reference.samples_per_point_mean)
+            } else {
+                nrms_of(&m.label)
+                    .map(|e| format!("NRMS {:.2} %", 100.0 * e))
+                    .unwrap_or_default()
+            };
+            (m.label.clone(), second)
+        })
+        .collect();
+    let images = case.images.clone();
+    render_png_bytes((width as u32, height as u32), move |root| {
+        draw_text(
+            &root,
+            &title,
+            (width / 2, 22),
+            TextSpec::new(17.0, INK, HPos::Center, VPos::Center),
+        )?;
+        for (c, o) in orientations.iter().enumerate() {
+            let x = left + c as i32 * (tile + gap) + tile / 2;
+            draw_text(
+                &root,
+                o,
+                (x, top - 18),
+                TextSpec::new(15.0, INK, HPos::Center, VPos::Center),
+            )?;
+        }
+        for (r, m) in images.iter().enumerate() {
+            let y0 = top + r as i32 * (tile + gap);
+            draw_text(
+                &root,
+                &labels[r].0,
+                (left - 12, y0 + tile / 2 - 10),
+                TextSpec::new(16.0, INK, HPos::Right, VPos::Center),
+            )?;
+            draw_text(
+                &root,
+                &labels[r].1,
+                (left - 12, y0 + tile / 2 + 12),
+                TextSpec::new(13.0, INK, HPos::Right, VPos::Center),
+            )?;
+            for (c, img) in m.images.iter().enumerate() {
+                let x0 = left + c as i32 * (tile + gap);
+                root.draw(&Rectangle::new(
+                    [(x0 - 1, y0 - 1), (x0 + tile, y0 + tile)],
+                    RGBColor(190, 190, 190),
+                ))
+                .map_err(draw_err)?;
+                let grey = (r == 0).then(|| tone_map(img, log_avg));
+                for (k, &e) in img.iter().enumerate() {
+                    let colour = match &grey {
+                        Some(g) => RGBColor(g[k], g[k], g[k]),
+                        None => {
+                            let d = e - reference.images[c][k];
+                            let t = if peak > 0.0 { d / (peak * range) } else { 0.0 };
+                            difference_colour(t)
+                        }
+                    };
+                    let (py, px) = ((k / n) * zoom, (k % n) * zoom);
+                    for dy in 0..zoom {
+                        for dx in 0..zoom {
+                            root.draw_pixel(
+                                (x0 + (px + dx) as i32, y0 + (py + dy) as i32),
+                                &colour,
+                            )
+                            .map_err(draw_err)?;
+                        }
+                    }
+                }
+            }
+        }
+        // colour bar beside the difference rows
+        let bx = left + cols as i32 * (tile + gap) + 20;
+        let (by0, by1) = (top + tile + gap, top + rows * (tile + gap) - gap);
+        let span = (by1 - by0).max(1);
+        for y in by0..by1 {
+            let t = 1.0 - 2.0 * f64::from(y - by0) / f64::from(span);
+            root.draw(&Rectangle::new(
+                [(bx, y), (bx + 22, y + 1)],
+                difference_colour(t).filled(),
+            ))
+            .map_err(draw_err)?;
+        }
+        root.draw(&Rectangle::new([(bx, by0), (bx + 22, by1)], INK))
+            .map_err(draw_err)?;
+        let pct = 100.0 * range;
+        for (t, label) in [
+            (1.0, format!("+{pct:.0} % too bright")),
+            (0.0, "0".to_string()),
+            (-1.0, format!("−{pct:.0} % too dark")),
+        ] {
+            let y = by0 + ((1.0 - t) / 2.0 * f64::from(span)).round() as i32;
+            draw_text(
+                &root,
+                &label,
+                (bx + 28, y.clamp(by0 + 6, by1 - 6)),
+                TextSpec::new(13.0, INK, HPos::Left, VPos::Center),
+            )?;
+        }
+        Ok(())
+    })
+}

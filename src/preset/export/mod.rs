@@ -10,12 +10,14 @@
 //! | [`buffer`] | glTF buffers, accessors, data URIs and the GLB container |
 //! | [`gltf`] | [`gltf::material_gltf`]: the glTF 2.0 document of every material section |
 //! | [`openpbr`] | [`openpbr::openpbr_parameters`] (JSON) and [`openpbr::materialx_document`] (MaterialX 1.39 `open_pbr_surface`) |
+//! | [`light`] | [`light::gltf_light`]: a `lumifit.light/1` preset or photometric file as one node with `KHR_lights_punctual` + `EXT_lights_ies` (IES written by lumifit) |
 
 pub mod base_colour;
 pub mod buffer;
 pub mod fluorescence;
 pub mod glow;
 pub mod gltf;
+pub mod light;
 pub mod openpbr;
 pub mod scene;
 

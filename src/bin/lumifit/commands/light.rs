@@ -26,6 +26,68 @@ pub enum LightCommand {
     /// A `lumifit.light/1` preset: the full candela grid, flux, emitter rectangle and frame,
     /// with the source file's SHA-256 in the provenance.
     Preset(PresetArgs),
+    /// The paper's benchmark (Luksch et al. 2020 §6): NRMS of every method against a Monte
+    /// Carlo reference on ground-plane images, per profile, height and method; false-colour
+    /// difference images; time per method; the MC sample count at the cubature's NRMS.
+    Benchmark(BenchmarkArgs),
+    /// A synthetic profile (lambertian, spot, batwing, asymmetric) written as LM-63-2019 by
+    /// lumifit's IES writer.
+    Synth(SynthArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct BenchmarkArgs {
+    /// IES or EULUMDAT files (each is one profile, shaded as a 1 × 1 m rectangle).
+    #[arg(required = true)]
+    pub lights: Vec<PathBuf>,
+    /// Output directory: nrms.csv, reference.csv, nrms.md, summary.json, diff-<profile>-h<h>.png.
+    #[arg(long, value_name = "DIR/")]
+    pub out: PathBuf,
+    /// Side of the square ground image in m (centred under the light).
+    #[arg(long, default_value_t = 4.0)]
+    pub size: f64,
+    /// Receivers per image side.
+    #[arg(long, default_value_t = 64)]
+    pub resolution: usize,
+    /// Heights of the light's lowest point above the ground, m.
+    #[arg(long, default_value = "0.1,1,2.5", value_delimiter = ',')]
+    pub heights: Vec<f64>,
+    /// Angles between n_A and n_g in units of π.
+    #[arg(long, default_value = "0.5,0.625,0.75,0.875,1", value_delimiter = ',')]
+    pub orientations: Vec<f64>,
+    /// Tolerance of cubature-adaptive (0.1 keeps the run short: on a striped profile 0.01 costs
+    /// 60 000 triangles per receiver; the method is reported, not judged).
+    #[arg(long, default_value_t = 0.1)]
+    pub tolerance: f64,
+    /// The reference's noise must be below this fraction of the smallest judged NRMS.
+    #[arg(long, default_value_t = 0.1)]
+    pub noise_fraction: f64,
+    /// Budget of reference samples per profile and height (all receivers).
+    #[arg(long, default_value_t = 4_000_000_000)]
+    pub max_reference_samples: u64,
+    /// Difference images saturate at ± this fraction of the height's peak illuminance.
+    #[arg(long, default_value_t = 0.1)]
+    pub diff_range: f64,
+    /// Seed of the Monte Carlo reference and ladder.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Lamp tilt in degrees at which an IES TILT table is applied.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub lamp_tilt: f64,
+    /// Interpolation of I(C, γ) between the file's nodes.
+    #[arg(long, value_enum, default_value = "bilinear")]
+    pub interp: InterpArg,
+}
+
+#[derive(Debug, Args)]
+pub struct SynthArgs {
+    /// lambertian (I₀ cos γ), spot (cos⁴⁵ γ, 20° beam), batwing (cos γ (1 + 3 sin² γ)) or
+    /// asymmetric (two tilted lobes, no symmetry); I₀ = 1000 cd, 1 × 1 m opening.
+    #[arg(long)]
+    pub profile: String,
+    /// Output IES file.
+    #[arg(long, value_name = "FILE.ies")]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -141,6 +203,26 @@ pub struct IlluminanceArgs {
     /// Output CSV: the points, E_lux, and E_std (mc) or Le_bar (cubature methods).
     #[arg(long, value_name = "E.csv")]
     pub out: PathBuf,
+    /// Interpolation of I(C, γ) between the file's nodes.
+    #[arg(long, value_enum, default_value = "bilinear")]
+    pub interp: InterpArg,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum InterpArg {
+    /// Bilinear in C and γ.
+    Bilinear,
+    /// Cubic Hermite in C and γ (C¹, exact on cubics, wraps at 360°, never below 0).
+    Bicubic,
+}
+
+impl From<InterpArg> for lumifit::photometry::Interp {
+    fn from(a: InterpArg) -> Self {
+        match a {
+            InterpArg::Bilinear => lumifit::photometry::Interp::Bilinear,
+            InterpArg::Bicubic => lumifit::photometry::Interp::Bicubic,
+        }
+    }
 }
 
 /// Dispatches `lumifit light …`.
@@ -150,6 +232,8 @@ pub fn run(c: LightCommand) -> Result<()> {
         LightCommand::Convert(a) => convert(&a),
         LightCommand::Illuminance(a) => shade(&a),
         LightCommand::Preset(a) => preset(&a),
+        LightCommand::Benchmark(a) => benchmark(&a),
+        LightCommand::Synth(a) => synth(&a),
     }
 }
 
@@ -355,7 +439,8 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
     let receivers = lumifit::io::receivers::read_receivers(&a.points)?;
     let n = receivers.len();
     let started = std::time::Instant::now();
-    let shades = illuminance(&light, &f.photometry.grid, &receivers, m)?;
+    let grid = f.photometry.grid.clone().with_interp(a.interp.into());
+    let shades = illuminance(&light, &grid, &receivers, m)?;
     let seconds = started.elapsed().as_secs_f64();
     let e: Vec<f64> = shades.iter().map(|s| s.e_lux).collect();
     lumifit::error::ensure_finite("E_lux", &a.points.display().to_string(), &e)?;
@@ -372,6 +457,7 @@ fn shade(a: &IlluminanceArgs) -> Result<()> {
             "E_lux_min": e.iter().cloned().fold(f64::INFINITY, f64::min),
             "E_lux_max": e.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
             "mean_evaluations_per_point": evals as f64 / n.max(1) as f64,
+            "interp": grid.interp,
             "out": a.out.display().to_string(),
         })
         .to_string(),
@@ -438,7 +524,7 @@ fn preset(a: &PresetArgs) -> Result<()> {
         let uri = i
             .file_name()
             .map_or_else(|| "light.ies".into(), |s| s.to_string_lossy().into_owned());
-        let (doc, ies) = lumifit::preset::photometric::gltf_light(&f, &light, &p.name, &uri)?;
+        let (doc, ies) = lumifit::preset::export::light::gltf_light(&f, &light, &p.name, &uri)?;
         out.stage(g, (serde_json::to_string_pretty(&doc)? + "\n").as_bytes())?;
         out.stage(i, &ies)?;
     }
@@ -453,4 +539,174 @@ fn preset(a: &PresetArgs) -> Result<()> {
         })
         .to_string(),
     )
+}
+
+fn synth(a: &SynthArgs) -> Result<()> {
+    let mut out = Outputs::new();
+    out.declare("--out", &a.out)?;
+    let profile: lumifit::photometry::synthetic::SyntheticProfile = a.profile.parse()?;
+    let f = profile.file()?;
+    let tool = format!(
+        "lumifit {} light synth --profile {}",
+        env!("CARGO_PKG_VERSION"),
+        profile.name()
+    );
+    let text = lumifit::io::ies::write_ies(&f, &tool)?;
+    out.stage(&a.out, text.as_bytes())?;
+    out.commit()?;
+    let s = summary(&f.photometry);
+    emit(
+        &json!({"profile": profile.name(), "out": a.out.display().to_string(),
+                 "max_cd": s.max_cd, "flux_lm": s.flux_lm})
+        .to_string(),
+    )
+}
+
+fn benchmark(a: &BenchmarkArgs) -> Result<()> {
+    use lumifit::photometry::benchmark::{self as bench, BenchmarkSpec};
+    let mut out = Outputs::new();
+    for l in &a.lights {
+        out.input(l);
+    }
+    out.declare_dir("--out", &a.out)?;
+    let spec = BenchmarkSpec {
+        heights_m: a.heights.clone(),
+        orientations_rad: a
+            .orientations
+            .iter()
+            .map(|f| f * std::f64::consts::PI)
+            .collect(),
+        image_size_m: a.size,
+        resolution_px: a.resolution,
+        adaptive_tolerance: a.tolerance,
+        noise_fraction: a.noise_fraction,
+        max_samples: a.max_reference_samples,
+        seed: a.seed,
+        interp: a.interp.into(),
+        ..BenchmarkSpec::default()
+    };
+    bench::validate(&spec, a.lights.len())?;
+    let files = a
+        .lights
+        .iter()
+        .map(|l| read(l, a.lamp_tilt))
+        .collect::<Result<Vec<_>>>()?;
+    let names = profile_names(&a.lights);
+    let mut pngs = Vec::new();
+    for n in &names {
+        for h in &spec.heights_m {
+            let p = a.out.join(format!("diff-{n}-h{h}.png"));
+            out.declare("--out", &p)?;
+            pngs.push(p);
+        }
+    }
+    let tables = ["nrms.csv", "reference.csv", "nrms.md", "summary.json"].map(|f| a.out.join(f));
+    for t in &tables {
+        out.declare("--out", t)?;
+    }
+    let profiles: Vec<(String, &lumifit::photometry::CandelaGrid)> = names
+        .iter()
+        .cloned()
+        .zip(files.iter().map(|f| &f.photometry.grid))
+        .collect();
+    let bar = super::progress_bar(
+        profiles.len() * spec.heights_m.len(),
+        "benchmark",
+        "profile × height",
+    );
+    let started = std::time::Instant::now();
+    let cases = bench::run_all(&profiles, &spec, &|_| bar.inc(1))?;
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    for (c, p) in cases.iter().zip(&pngs) {
+        out.stage(
+            p,
+            &lumifit::plot::photometry::benchmark_difference_png(c, &spec, a.diff_range)?,
+        )?;
+    }
+    out.stage(&tables[0], bench::results_csv(&cases).as_bytes())?;
+    out.stage(&tables[1], bench::reference_csv(&cases).as_bytes())?;
+    out.stage(
+        &tables[2],
+        bench::results_markdown(&cases, &spec).as_bytes(),
+    )?;
+    let summary = json!({"spec": spec, "cases": cases, "seconds": seconds,
+        "files": a.lights.iter().map(|l| l.display().to_string()).collect::<Vec<_>>()});
+    out.stage(
+        &tables[3],
+        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+    )?;
+    out.commit()?;
+    let worst = cases
+        .iter()
+        .map(|c| c.reference.noise_ratio)
+        .fold(0.0f64, f64::max);
+    emit(
+        &json!({"out": a.out.display().to_string(), "profiles": names, "cases": cases.len(),
+        "seconds": seconds, "all_references_converged": cases.iter().all(|c| c.reference.converged),
+        "worst_reference_noise_ratio": worst})
+        .to_string(),
+    )
+}
+
+/// File stems as profile names, made unique with the parent folder's name when two collide.
+fn profile_names(paths: &[PathBuf]) -> Vec<String> {
+    let stem = |p: &PathBuf| {
+        p.file_stem()
+            .map_or_else(|| "light".into(), |s| s.to_string_lossy().into_owned())
+    };
+    let mut names: Vec<String> = paths.iter().map(stem).collect();
+    for i in 0..names.len() {
+        if names.iter().filter(|n| **n == names[i]).count() > 1 {
+            let parent = paths[i]
+                .parent()
+                .and_then(|d| d.file_name())
+                .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+            names[i] = format!("{parent}-{}", names[i]);
+        }
+    }
+    let mut seen = std::collections::HashMap::new();
+    for n in names.iter_mut() {
+        let k = seen.entry(n.clone()).or_insert(0usize);
+        *k += 1;
+        if *k > 1 {
+            *n = format!("{n}-{k}");
+        }
+    }
+    names
+}
+
+/// `preset export LIGHT.json --format gltf --out light.gltf`: the same node as `light preset
+/// --gltf` (default frame: 2.5 m above the origin, facing down, C0 along +Z), the IES written
+/// beside it as `<out stem>.ies`.
+pub fn export_preset_gltf(
+    path: &std::path::Path,
+    preset: &lumifit::preset::LightPreset,
+    gltf: &std::path::Path,
+) -> Result<()> {
+    let mut out = Outputs::new();
+    out.input(path);
+    let stem = gltf
+        .file_stem()
+        .map_or_else(|| "light".into(), |s| s.to_string_lossy().into_owned());
+    let ies_path = gltf.with_file_name(format!("{stem}.ies"));
+    out.declare("--out", gltf)?;
+    out.declare("--out (IES beside it)", &ies_path)?;
+    let file = path.display().to_string();
+    let section = &preset.photometric;
+    let f = lumifit::preset::photometric::file_from_section(section, &file, &preset.name)?;
+    let [w, h] = lumifit::preset::photometric::read_section(section, &file)?.emitter_rect_m;
+    let light = RectLight::new([0.0, 2.5, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], w, h)?;
+    let uri = ies_path
+        .file_name()
+        .map_or_else(|| "light.ies".into(), |s| s.to_string_lossy().into_owned());
+    let (doc, ies) = lumifit::preset::export::light::gltf_light(&f, &light, &preset.name, &uri)?;
+    out.stage(
+        gltf,
+        (serde_json::to_string_pretty(&doc)? + "\n").as_bytes(),
+    )?;
+    out.stage(&ies_path, &ies)?;
+    out.commit()?;
+    emit(&json!({"in": file, "out": gltf.display().to_string(), "ies": ies_path.display().to_string(),
+                 "rect_m": [w, h]}).to_string())
 }

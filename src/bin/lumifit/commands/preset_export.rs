@@ -71,6 +71,12 @@ pub struct ExportArgs {
 
 /// Runs the export.
 pub fn run(a: &ExportArgs) -> Result<()> {
+    if a.format == "gltf" {
+        // a lumifit.light/1 preset: the photometric light (commands/light.rs)
+        if let lumifit::preset::Preset::Light(l) = lumifit::preset::read_preset(&a.preset)? {
+            return super::light::export_preset_gltf(&a.preset, &l, &a.out);
+        }
+    }
     match a.format.as_str() {
         "wgsl" | "glsl" => snippets(a),
         "gltf" => gltf(a),
