@@ -188,11 +188,7 @@ fn column_norm(x: &[f64]) -> f64 {
     let amax = x.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     if amax > 0.0 && amax.is_finite() {
         let inv = 1.0 / amax;
-        amax * x
-            .iter()
-            .map(|v| (v * inv) * (v * inv))
-            .sum::<f64>()
-            .sqrt()
+        amax * x.iter().map(|v| (v * inv) * (v * inv)).sum::<f64>().sqrt()
     } else {
         amax
     }
