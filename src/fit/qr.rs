@@ -249,4 +249,18 @@ mod tests {
         qr.project_out(&mut r);
         assert!(r.iter().all(|v| v.abs() < 1e-12));
     }
+
+    #[test]
+    fn column_norm_survives_sums_of_squares_outside_the_range_of_f64() {
+        // (3, 4)·s has norm 5 s; for s = 1e200 the plain sum of squares overflows and for
+        // s = 1e-200 it underflows, so these take the scaled path
+        for s in [1e200, 1e-200, 1.0] {
+            let qr = Qr::new(&[3.0 * s, 4.0 * s], 2, 1);
+            assert!((qr.r(0, 0).abs() / (5.0 * s) - 1.0).abs() < 1e-15, "{s}");
+        }
+        // four-lane dot product against the plain sum, odd length
+        let x: Vec<f64> = (0..37).map(|i| (i as f64 * 0.37).sin()).collect();
+        let plain: f64 = x.iter().map(|v| v * v).sum();
+        assert!((dot(&x, &x) / plain - 1.0).abs() < 1e-14);
+    }
 }

@@ -220,7 +220,7 @@ impl<M: SeparableModel> Evaluator<'_, '_, '_, M> {
                 pt.passive.extend(std::iter::repeat_n(true, n));
                 pt.all_passive.push(true);
             } else {
-                let s = nnls(&pt.basis, m, n, y, &self.free);
+                let s = nnls(&pt.basis, m, n, y, self.free);
                 pt.coeffs.extend_from_slice(&s.x);
                 pt.passive.extend_from_slice(&s.passive);
                 pt.all_passive.push(false);
