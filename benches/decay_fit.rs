@@ -11,6 +11,10 @@
 //! a curve for which it chose another number of states than two counts under "other n".
 //! The scipy peer (`curve_fit` with bounds ≥ 0, plus the lumifit CLI in the same run) is
 //! `scripts/bench/decay_fit_scipy.py`; results in docs/performance.md.
+//!
+//! Issue 18 reads three rows against each other: the default automatic mode ("auto, shared
+//! spectrum": the CLI's default), lumifit with two states fixed, and varpro (two states fixed,
+//! its best case); the bench prints the ratios of the auto row to the other two at the end.
 
 use std::time::Instant;
 
@@ -117,7 +121,8 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-fn summarise(name: &str, secs: f64, results: &[Option<[f64; 2]>], cases: &[Case]) {
+/// Prints one row and returns its fits/s.
+fn summarise(name: &str, secs: f64, results: &[Option<[f64; 2]>], cases: &[Case]) -> f64 {
     let mut e1 = Vec::new();
     let mut e2 = Vec::new();
     let mut failed = 0;
@@ -136,6 +141,7 @@ fn summarise(name: &str, secs: f64, results: &[Option<[f64; 2]>], cases: &[Case]
         median(e1),
         median(e2)
     );
+    cases.len() as f64 / secs
 }
 
 fn side_by_side() {
@@ -143,6 +149,7 @@ fn side_by_side() {
     let cases = cases();
     println!("decay fit, {N_CURVES} RGB curves × {N_SAMPLES} samples, two states, 1 % noise, single thread");
     let auto = StatesChoice::Auto { max: 3 };
+    let mut rates = Vec::new();
     for (name, amp, states) in [
         (
             "lumifit --states 2, per-channel amplitudes",
@@ -168,13 +175,13 @@ fn side_by_side() {
         let opts = lumifit_opts(amp, states);
         let start = Instant::now();
         let r: Vec<_> = cases.iter().map(|c| fit_lumifit(c, &opts)).collect();
-        summarise(name, start.elapsed().as_secs_f64(), &r, &cases);
+        rates.push(summarise(name, start.elapsed().as_secs_f64(), &r, &cases));
     }
     // varpro needs a starting guess: the log-spaced pair lumifit also starts from, and (kinder
     // to varpro) the true rates perturbed by +50 % / −30 %.
     let start = Instant::now();
     let r: Vec<_> = cases.iter().map(|c| fit_varpro(c, [0.1, 0.01])).collect();
-    summarise(
+    let varpro = summarise(
         "varpro 0.13 (guess 0.1, 0.01)",
         start.elapsed().as_secs_f64(),
         &r,
@@ -192,6 +199,14 @@ fn side_by_side() {
         &cases,
     );
     let _ = std::panic::take_hook();
+    // rates: [0] two states per-channel, [1] two states shared, [2] auto per-channel,
+    // [3] auto shared (the default)
+    println!(
+        "default auto mode (shared spectrum): {:.2}x varpro (two states fixed, crude start), \
+         {:.2}x lumifit --states 2 (shared spectrum)",
+        rates[3] / varpro,
+        rates[3] / rates[1]
+    );
 }
 
 fn bench(c: &mut Criterion) {

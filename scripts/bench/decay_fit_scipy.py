@@ -20,6 +20,12 @@ same file:
   "fitted N curves in S s") and by the wall time of the whole process (start-up, CSV parsing,
   writing the output).
 
+Issue 18 adds the default automatic mode (no --states: BIC over 1-3 states plus the collapse
+rule, shared spectrum), whole `fit-decay --batch` process on one thread, and with
+`--before EXE` the same rows for an older lumifit binary in the same run (before/after).
+A curve for which the automatic mode chose another number of states than two counts as
+"failed or other n".
+
 Reports fits/s, the median absolute relative error of k1 and k2 against the truth, and the
 ratios, as a Markdown table for docs/performance.md.
 """
@@ -96,8 +102,10 @@ def fit_scipy(curves):
     return time.perf_counter() - start, out
 
 
-def run_lumifit(exe, batch, out_csv, per_channel):
-    args = [exe, "phos", "fit-decay", "--batch", batch, "--states", "2", "--out", out_csv]
+def run_lumifit(exe, batch, out_csv, per_channel, states="2"):
+    args = [exe, "phos", "fit-decay", "--batch", batch, "--out", out_csv]
+    if states is not None:
+        args += ["--states", states]
     if per_channel:
         args.append("--per-channel")
     env = dict(os.environ, RAYON_NUM_THREADS="1")
@@ -139,20 +147,27 @@ def main():
     ap.add_argument("--n", type=int, default=1000, help="number of curves")
     ap.add_argument("--lumifit", default="target/release/lumifit", help="lumifit executable")
     ap.add_argument("--dir", default="target/decay_bench", help="working directory")
+    ap.add_argument("--before", help="an older lumifit executable, timed in the same run")
     a = ap.parse_args()
-    if not os.path.exists(a.lumifit):
-        sys.exit(f"{a.lumifit} not found; run `cargo build --release` first")
+    for exe in [a.lumifit] + ([a.before] if a.before else []):
+        if not os.path.exists(exe):
+            sys.exit(f"{exe} not found; run `cargo build --release` first")
     curves = make_curves(a.n)
     batch = os.path.join(a.dir, "curves.csv")
     write_batch(batch, curves)
 
     rows = []
-    for name, per_channel in [
-        ("lumifit, per-channel amplitudes", True),
-        ("lumifit, shared spectrum", False),
-    ]:
+    runs = [
+        ("lumifit --states 2, per-channel amplitudes", a.lumifit, True, "2"),
+        ("lumifit --states 2, shared spectrum", a.lumifit, False, "2"),
+        ("lumifit default (auto: BIC 1-3 + collapse, shared)", a.lumifit, False, None),
+    ]
+    if a.before:
+        runs.append(("before: lumifit default (auto, shared)", a.before, False, None))
+        runs.append(("before: lumifit --states 2, shared spectrum", a.before, False, "2"))
+    for i, (name, exe, per_channel, states) in enumerate(runs):
         fit_s, wall, ks = run_lumifit(
-            a.lumifit, batch, os.path.join(a.dir, f"fits_{int(per_channel)}.csv"), per_channel
+            exe, batch, os.path.join(a.dir, f"fits_{i}.csv"), per_channel, states
         )
         res = [ks.get(f"c{i}") for i in range(len(curves))]
         rows.append((name, fit_s, wall, errors(res, curves)))
@@ -165,13 +180,25 @@ def main():
         f"single thread; Python {platform.python_version()}, numpy {np.__version__}, "
         f"scipy {scipy.__version__}\n"
     )
-    print("| fitter | fits/s (fit) | fits/s (whole process) | × scipy | median abs. rel. error k₁ | k₂ | failed |")
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| fitter | fits/s (fit) | fits/s (whole process) | × scipy (fit) "
+        "| × scipy (whole process) | median abs. rel. error k₁ | k₂ | failed or other n |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
     for name, fit_s, wall, (e1, e2, failed) in rows:
         rate = len(curves) / fit_s
+        whole = len(curves) / wall
         print(
-            f"| {name} | {rate:,.0f} | {len(curves) / wall:,.0f} | {rate / scipy_rate:,.0f} "
-            f"| {e1:.2e} | {e2:.2e} | {failed} |"
+            f"| {name} | {rate:,.0f} | {whole:,.0f} | {rate / scipy_rate:,.0f} "
+            f"| {whole / scipy_rate:,.0f} | {e1:.2e} | {e2:.2e} | {failed} |"
+        )
+    if a.before:
+        by = {r[0]: r for r in rows}
+        new = by["lumifit default (auto: BIC 1-3 + collapse, shared)"]
+        old = by["before: lumifit default (auto, shared)"]
+        print(
+            f"\ndefault auto mode, after / before: {old[1] / new[1]:.2f}x (fit clock), "
+            f"{old[2] / new[2]:.2f}x (whole process)"
         )
 
 

@@ -43,21 +43,7 @@ impl Qr {
         self.rdiag.resize(n, 0.0);
         for j in 0..n.min(m) {
             let col = j * m;
-            // scaled sum of squares (no overflow or underflow, unlike a plain Σx², and much
-            // cheaper than a chain of hypot calls)
-            let amax = self.a[col + j..col + m]
-                .iter()
-                .fold(0.0_f64, |s, v| s.max(v.abs()));
-            let norm = if amax > 0.0 && amax.is_finite() {
-                let inv = 1.0 / amax;
-                amax * self.a[col + j..col + m]
-                    .iter()
-                    .map(|v| (v * inv) * (v * inv))
-                    .sum::<f64>()
-                    .sqrt()
-            } else {
-                amax
-            };
+            let norm = column_norm(&self.a[col + j..col + m]);
             if norm == 0.0 {
                 self.beta[j] = 0.0;
                 self.rdiag[j] = 0.0;
@@ -68,18 +54,15 @@ impl Qr {
             let x0 = self.a[col + j];
             self.a[col + j] = x0 - alpha;
             let vtv_half = norm * norm - alpha * x0;
-            self.beta[j] = 1.0 / vtv_half;
+            let beta = 1.0 / vtv_half;
+            self.beta[j] = beta;
             self.rdiag[j] = alpha;
-            for k in j + 1..n {
-                let ck = k * m;
-                let mut s = 0.0;
-                for i in j..m {
-                    s += self.a[col + i] * self.a[ck + i];
-                }
-                let f = s * self.beta[j];
-                for i in j..m {
-                    self.a[ck + i] -= f * self.a[col + i];
-                }
+            let (left, right) = self.a.split_at_mut((j + 1) * m);
+            let v = &left[col + j..col + m];
+            for ck in right.chunks_exact_mut(m).take(n - j - 1) {
+                let x = &mut ck[j..m];
+                let f = dot(v, x) * beta;
+                axpy(-f, v, x);
             }
         }
     }
@@ -119,11 +102,9 @@ impl Qr {
         }
         let m = self.m;
         let v = &self.a[j * m + j..j * m + m];
-        let s: f64 = v.iter().zip(&b[j..m]).map(|(v, b)| v * b).sum();
-        let f = s * self.beta[j];
-        for (bi, vi) in b[j..m].iter_mut().zip(v) {
-            *bi -= f * vi;
-        }
+        let x = &mut b[j..m];
+        let f = dot(v, x) * self.beta[j];
+        axpy(-f, v, x);
     }
 
     /// Element (i, j) of R (i ≤ j).
@@ -195,6 +176,54 @@ impl Qr {
     }
 }
 
+/// ‖x‖: the plain sum of squares when it is safely inside the range of f64 (the common case,
+/// one pass), otherwise the sum of squares scaled by the largest element (no overflow or
+/// underflow).
+#[inline]
+fn column_norm(x: &[f64]) -> f64 {
+    let ss = dot(x, x);
+    if ss.is_finite() && ss > 1e-280 && ss < 1e280 {
+        return ss.sqrt();
+    }
+    let amax = x.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
+    if amax > 0.0 && amax.is_finite() {
+        let inv = 1.0 / amax;
+        amax * x.iter().map(|v| (v * inv) * (v * inv)).sum::<f64>().sqrt()
+    } else {
+        amax
+    }
+}
+
+/// xᵀy with four independent partial sums (so the loop vectorises; the summation order is
+/// fixed, so the result is deterministic).
+#[inline]
+pub(crate) fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len().min(y.len());
+    let (x, y) = (&x[..n], &y[..n]);
+    let mut acc = [0.0_f64; 4];
+    let xc = x.chunks_exact(4);
+    let yc = y.chunks_exact(4);
+    let (xr, yr) = (xc.remainder(), yc.remainder());
+    for (a, b) in xc.zip(yc) {
+        for l in 0..4 {
+            acc[l] += a[l] * b[l];
+        }
+    }
+    let mut tail = 0.0;
+    for (a, b) in xr.iter().zip(yr) {
+        tail += a * b;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// y ← y + α x.
+#[inline]
+pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += alpha * xi;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -219,5 +248,19 @@ mod tests {
         let mut r = y.clone();
         qr.project_out(&mut r);
         assert!(r.iter().all(|v| v.abs() < 1e-12));
+    }
+
+    #[test]
+    fn column_norm_survives_sums_of_squares_outside_the_range_of_f64() {
+        // (3, 4)·s has norm 5 s; for s = 1e200 the plain sum of squares overflows and for
+        // s = 1e-200 it underflows, so these take the scaled path
+        for s in [1e200, 1e-200, 1.0] {
+            let qr = Qr::new(&[3.0 * s, 4.0 * s], 2, 1);
+            assert!((qr.r(0, 0).abs() / (5.0 * s) - 1.0).abs() < 1e-15, "{s}");
+        }
+        // four-lane dot product against the plain sum, odd length
+        let x: Vec<f64> = (0..37).map(|i| (i as f64 * 0.37).sin()).collect();
+        let plain: f64 = x.iter().map(|v| v * v).sum();
+        assert!((dot(&x, &x) / plain - 1.0).abs() < 1e-14);
     }
 }

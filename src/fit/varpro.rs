@@ -131,17 +131,50 @@ struct Scratch {
     sub_qr: Qr,
 }
 
-struct Evaluator<'m, 'd, M: SeparableModel> {
+struct Evaluator<'m, 'd, 'w, M: SeparableModel> {
     model: &'m M,
     data: SeparableData<'d>,
     m: usize,
     n: usize,
+    free: &'w [bool],
+    params: &'w [Option<usize>],
+    wy: &'w [f64],
+}
+
+/// Every buffer of one solve, kept per thread and reused by the next solve (a decay fit runs
+/// thousands of small solves; allocating these each time cost about a tenth of the time).
+#[derive(Debug, Default)]
+struct Workspace {
     free: Vec<bool>,
     params: Vec<Option<usize>>,
     wy: Vec<f64>,
+    cur: Point,
+    trial: Point,
+    sc: Scratch,
+    jac: Vec<f64>,
+    qr: Qr,
+    qtr: Vec<f64>,
+    g: Vec<f64>,
+    diag: Vec<f64>,
+    step: Vec<f64>,
+    trial_theta: Vec<f64>,
+    aug: Vec<f64>,
+    rhs: Vec<f64>,
+    small: Qr,
+    lin: Vec<f64>,
 }
 
-impl<M: SeparableModel> Evaluator<'_, '_, M> {
+thread_local! {
+    static WORKSPACE: std::cell::RefCell<Workspace> = std::cell::RefCell::new(Workspace::default());
+}
+
+/// `v` cleared and filled with `len` copies of `x`.
+fn reset<T: Clone>(v: &mut Vec<T>, len: usize, x: T) {
+    v.clear();
+    v.resize(len, x);
+}
+
+impl<M: SeparableModel> Evaluator<'_, '_, '_, M> {
     /// Evaluates the basis and the projected residual at θ. The basis is factorised once and
     /// the factorisation is shared by all right-hand sides: when the unconstrained solution is
     /// feasible (the common case) it is the NNLS solution (same arithmetic as the fast path of
@@ -180,14 +213,14 @@ impl<M: SeparableModel> Evaluator<'_, '_, M> {
                 sc.qtb.extend_from_slice(y);
                 pt.qr.qt_mul(&mut sc.qtb);
                 pt.qr.solve_r(&sc.qtb, &mut sc.x);
-                feasible = sc.x.iter().zip(&self.free).all(|(v, f)| *f || *v >= 0.0);
+                feasible = sc.x.iter().zip(self.free).all(|(v, f)| *f || *v >= 0.0);
             }
             if feasible {
                 pt.coeffs.extend_from_slice(&sc.x);
                 pt.passive.extend(std::iter::repeat_n(true, n));
                 pt.all_passive.push(true);
             } else {
-                let s = nnls(&pt.basis, m, n, y, &self.free);
+                let s = nnls(&pt.basis, m, n, y, self.free);
                 pt.coeffs.extend_from_slice(&s.x);
                 pt.passive.extend_from_slice(&s.passive);
                 pt.all_passive.push(false);
@@ -269,10 +302,44 @@ pub fn solve_separable<M: SeparableModel>(
     theta0: &[f64],
     opts: &SolverOptions,
 ) -> SeparableFit {
+    WORKSPACE.with(|ws| match ws.try_borrow_mut() {
+        Ok(mut ws) => solve_in(model, data, theta0, opts, &mut ws),
+        // re-entered from inside a model (not done by the crate's models): fresh buffers
+        Err(_) => solve_in(model, data, theta0, opts, &mut Workspace::default()),
+    })
+}
+
+fn solve_in<M: SeparableModel>(
+    model: &M,
+    data: SeparableData<'_>,
+    theta0: &[f64],
+    opts: &SolverOptions,
+    ws: &mut Workspace,
+) -> SeparableFit {
     let m = model.n_rows();
     let n = model.n_cols();
     let p = model.n_params();
-    let mut wy = data.y[..m * data.n_rhs].to_vec();
+    let Workspace {
+        free,
+        params,
+        wy,
+        cur,
+        trial,
+        sc,
+        jac,
+        qr,
+        qtr,
+        g,
+        diag,
+        step,
+        trial_theta,
+        aug,
+        rhs,
+        small,
+        lin,
+    } = ws;
+    wy.clear();
+    wy.extend_from_slice(&data.y[..m * data.n_rhs]);
     if let Some(w) = data.sqrt_w {
         for r in 0..data.n_rhs {
             for i in 0..m {
@@ -280,19 +347,21 @@ pub fn solve_separable<M: SeparableModel>(
             }
         }
     }
+    free.clear();
+    free.extend((0..n).map(|j| model.column_free(j)));
+    params.clear();
+    params.extend((0..n).map(|j| model.column_param(j)));
     let ev = Evaluator {
         model,
         data,
         m,
         n,
-        free: (0..n).map(|j| model.column_free(j)).collect(),
-        params: (0..n).map(|j| model.column_param(j)).collect(),
+        free,
+        params,
         wy,
     };
     let mut theta = theta0.to_vec();
-    let mut cur = Point::default();
-    let mut sc = Scratch::default();
-    if !ev.eval(&theta, &mut cur, &mut sc) {
+    if !ev.eval(&theta, cur, sc) {
         return SeparableFit {
             theta,
             coeffs: vec![0.0; n * data.n_rhs],
@@ -302,30 +371,25 @@ pub fn solve_separable<M: SeparableModel>(
         };
     }
     let rows = m * data.n_rhs;
-    let mut trial = Point::default();
-    let mut jac = Vec::new();
     let mut mu = 0.0_f64;
     let mut nu = 2.0;
     let mut iterations = 0;
     let mut termination = Termination::MaxIterations;
     let mut need_jac = true;
-    let mut qr = Qr::default();
-    let mut qtr = vec![0.0; rows];
-    let mut g = vec![0.0; p];
-    let mut diag = vec![0.0_f64; p];
-    let mut step = vec![0.0; p];
-    let mut trial_theta = vec![0.0; p];
-    let mut aug = Vec::new();
-    let mut rhs = vec![0.0; 2 * p];
-    let mut small = Qr::default();
-    let mut lin = Vec::with_capacity(p);
+    reset(qtr, rows, 0.0);
+    reset(g, p, 0.0);
+    reset(diag, p, 0.0);
+    reset(step, p, 0.0);
+    reset(trial_theta, p, 0.0);
+    reset(rhs, 2 * p, 0.0);
+    lin.clear();
     while iterations < opts.max_iter {
         iterations += 1;
         if need_jac {
-            ev.jacobian(&cur, p, &mut jac, &mut sc);
-            qr.factor(&jac, rows, p);
+            ev.jacobian(cur, p, jac, sc);
+            qr.factor(jac, rows, p);
             qtr.copy_from_slice(&cur.resid);
-            qr.qt_mul(&mut qtr);
+            qr.qt_mul(qtr);
             // gradient g = Jᵀ r and column norms
             let rnorm = cur.rss.sqrt();
             let mut gmax = 0.0_f64;
@@ -361,13 +425,13 @@ pub fn solve_separable<M: SeparableModel>(
             aug[j * 2 * p + p + j] = mu.sqrt() * d;
             rhs[j] = -qtr[j];
         }
-        small.factor(&aug, 2 * p, p);
-        small.qt_mul(&mut rhs);
-        small.solve_r(&rhs, &mut step);
+        small.factor(aug, 2 * p, p);
+        small.qt_mul(rhs);
+        small.solve_r(rhs, step);
         for q in 0..p {
             trial_theta[q] = theta[q] + step[q];
         }
-        let ok = ev.eval(&trial_theta, &mut trial, &mut sc);
+        let ok = ev.eval(trial_theta, trial, sc);
         // predicted reduction of ½‖r‖²: −gᵀδ·... computed from the linear model.
         lin.clear();
         lin.extend_from_slice(&qtr[..p]);
@@ -383,10 +447,10 @@ pub fn solve_separable<M: SeparableModel>(
         if ok && trial.rss.is_finite() && actual > 0.0 {
             let rho = if pred > 0.0 { actual / pred } else { 1.0 };
             let old_rss = cur.rss;
-            let step_norm = norm(&step);
+            let step_norm = norm(step);
             let theta_norm = norm(&theta);
-            theta.copy_from_slice(&trial_theta);
-            std::mem::swap(&mut cur, &mut trial);
+            theta.copy_from_slice(trial_theta);
+            std::mem::swap(cur, trial);
             need_jac = true;
             mu *= (1.0_f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
             nu = 2.0;
@@ -404,7 +468,7 @@ pub fn solve_separable<M: SeparableModel>(
                 termination = Termination::NonFinite;
                 break;
             }
-            if ok && step_converged(norm(&step), norm(&theta), opts.xtol) {
+            if ok && step_converged(norm(step), norm(&theta), opts.xtol) {
                 termination = Termination::StepConverged;
                 break;
             }
@@ -425,7 +489,7 @@ pub fn solve_separable<M: SeparableModel>(
     }
     SeparableFit {
         theta,
-        coeffs: cur.coeffs,
+        coeffs: cur.coeffs.clone(),
         rss: cur.rss,
         iterations,
         termination,

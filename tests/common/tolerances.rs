@@ -208,3 +208,15 @@ pub mod preset_preview {
     /// finite size adds ~6e-4 (seen: −0.17 %).
     pub const LIGHT_FOOT_REL: f64 = 3e-3;
 }
+
+/// `tests/decay_decisions.rs`.
+pub mod decay_decisions {
+    /// A rate against the recorded one, in units of its recorded standard deviation: the same
+    /// minimum reached from other starts or along another path differs only by where the solver
+    /// stopped (ftol 1e-12 on the cost puts the parameters within ~1e-5 σ of the minimum), so
+    /// 1 % of σ is far above that and far below any difference a statistic could see.
+    pub const RATE_TOL_SIGMA: f64 = 0.01;
+    /// Floor of the rate tolerance, relative, for states whose σ is missing or tiny (noise-free
+    /// limit of the same argument: the solver's xtol 1e-10 on ln k, with margin).
+    pub const RATE_TOL_REL: f64 = 1e-6;
+}

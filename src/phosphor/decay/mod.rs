@@ -61,4 +61,7 @@ use prepared::*;
 use select::*;
 #[allow(unused_imports)]
 use starts::*;
-use types::{SEED_FTOL, SEED_XTOL};
+use types::{
+    ALTERNATION_FTOL, ALTERNATION_ROUNDS, ALTERNATION_SETTLED, ALTERNATION_XTOL, SEED_FTOL,
+    SEED_XTOL,
+};

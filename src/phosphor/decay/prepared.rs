@@ -148,7 +148,11 @@ impl<'c> Prepared<'c> {
         };
         let (m, nc) = (self.m, self.n_ch);
         let ncols = n + usize::from(opts.background);
-        if nc == 1 || opts.amplitudes == AmplitudeModel::PerChannel {
+        // One state: the shared-spectrum model a·Λ*_c e^{−kτ} is the per-channel model with
+        // c_c = a Λ*_c ≥ 0 (any non-negative row is a multiple of a unit spectrum), so it is one
+        // multi-right-hand-side solve, with no alternation: Λ* = c/‖c‖, a = ‖c‖.
+        let one_shared = n == 1 && nc > 1 && opts.amplitudes == AmplitudeModel::SharedSpectrum;
+        if nc == 1 || one_shared || opts.amplitudes == AmplitudeModel::PerChannel {
             let fit = solve_separable(
                 &basis,
                 SeparableData {
@@ -169,6 +173,13 @@ impl<'c> Prepared<'c> {
             };
             let (a, s) = if nc == 1 {
                 (c.iter().map(|v| v[0]).collect(), vec![1.0])
+            } else if one_shared {
+                let norm = c[0].iter().map(|v| v * v).sum::<f64>().sqrt();
+                if norm > 0.0 {
+                    (vec![norm], c[0].iter().map(|v| v / norm).collect())
+                } else {
+                    (vec![0.0], s0.to_vec())
+                }
             } else {
                 (
                     c.iter()
@@ -199,7 +210,17 @@ impl<'c> Prepared<'c> {
                 .map(|c| (0..m).map(|i| self.w(i) * self.y[c * m + i]).sum::<f64>() / wsum)
                 .collect()
         };
-        for _ in 0..30 {
+        // While the spectrum still moves, the fit of Y s for that spectrum is only a step of
+        // the alternation: it stops at a loose tolerance; once the spectrum has settled the
+        // rounds use the full tolerance, and only a round at the full tolerance can end it.
+        let loose = SolverOptions {
+            ftol: ALTERNATION_FTOL.max(opts.solver.ftol),
+            xtol: ALTERNATION_XTOL.max(opts.solver.xtol),
+            ..opts.solver
+        };
+        let mut tight = false;
+        for round in 0..ALTERNATION_ROUNDS {
+            tight |= round + 5 >= ALTERNATION_ROUNDS;
             for (i, v) in ys.iter_mut().enumerate() {
                 *v = (0..nc).map(|c| s[c] * self.y[c * m + i]).sum();
             }
@@ -211,7 +232,7 @@ impl<'c> Prepared<'c> {
                     sqrt_w: self.sqrt_w.as_deref(),
                 },
                 &theta,
-                &opts.solver,
+                if tight { &opts.solver } else { &loose },
             );
             theta.clone_from(&fit.theta);
             let a: Vec<f64> = fit.coeffs[..n].to_vec();
@@ -247,7 +268,8 @@ impl<'c> Prepared<'c> {
                     new_s.iter_mut().for_each(|x| *x /= norm);
                     scale = norm;
                     let d: f64 = new_s.iter().zip(&s).map(|(a, b)| (a - b).abs()).sum();
-                    done = d < 1e-11;
+                    done = tight && d < 1e-11;
+                    tight |= d < ALTERNATION_SETTLED;
                 }
             }
             let a_scaled: Vec<f64> = a.iter().map(|v| v * scale).collect();

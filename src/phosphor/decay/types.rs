@@ -13,6 +13,17 @@ pub(super) const SEED_FTOL: f64 = 1e-6;
 /// Relative step at which a seed fit stops.
 pub(super) const SEED_XTOL: f64 = 1e-5;
 
+/// Relative cost reduction at which a round of the shared-spectrum alternation stops while the
+/// spectrum is still moving (see [`ALTERNATION_SETTLED`]).
+pub(super) const ALTERNATION_FTOL: f64 = 1e-8;
+/// Relative step at which such a round stops.
+pub(super) const ALTERNATION_XTOL: f64 = 1e-6;
+/// Change of the unit spectrum (sum of absolute differences) below which it has settled and the
+/// rounds use the full tolerance.
+pub(super) const ALTERNATION_SETTLED: f64 = 1e-5;
+/// Most rounds of the alternation (the last five at the full tolerance).
+pub(super) const ALTERNATION_ROUNDS: usize = 30;
+
 /// A measured decay: times and one or more channels, optional per-sample standard deviations.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DecayCurve {
