@@ -373,9 +373,8 @@ impl<'a> Problem<'a> {
     /// θ of this problem from θ of another (map, FWHM kept; fall-off kept where both have it).
     fn theta_from(&self, other: &Problem, theta: &[f64]) -> Vec<f64> {
         let mut t = vec![0.0; self.n_theta()];
-        for k in 0..self.n_map.min(other.n_map) {
-            t[k] = theta[k];
-        }
+        let k = self.n_map.min(other.n_map);
+        t[..k].copy_from_slice(&theta[..k]);
         t[self.n_map] = other.fwhm(theta);
         let of = other.falloff_coefficients(theta);
         for (j, v) in of.iter().enumerate().take(self.terms.falloff_degree) {
@@ -1323,8 +1322,8 @@ fn assess(
     let mut score = vec![(0.0f64, 0.0f64); n]; // (relative amplitude, significance)
     for (i, &li) in lams.iter().enumerate() {
         let (mut stt, mut srt) = (0.0, [0.0; 3]);
-        for j in 0..n {
-            let d = lams[j] - li;
+        for (j, &lj) in lams.iter().enumerate() {
+            let d = lj - li;
             if d.abs() > 2.0 * fwhm {
                 continue;
             }

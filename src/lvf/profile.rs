@@ -142,8 +142,8 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
         }
         counts.push(n);
         for (s, st) in strips.iter_mut().enumerate() {
-            for c in 0..3 {
-                st.values[c].push(if sn[s] > 0 {
+            for (c, col) in st.values.iter_mut().enumerate() {
+                col.push(if sn[s] > 0 {
                     ssum[s][c] / sn[s] as f64
                 } else {
                     f64::NAN

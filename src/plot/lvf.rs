@@ -136,14 +136,10 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                     .map_err(draw_err)?;
             }
         }
-        for k in 0..3 {
-            if c.background[k].len() == c.px.len() {
-                let pts: Vec<(f64, f64)> =
-                    c.px.iter()
-                        .copied()
-                        .zip(c.background[k].iter().copied())
-                        .collect();
-                draw_curve(&mut chart, &pts, BACKGROUND_RGB[k], 2)?;
+        for (bg, rgb) in c.background.iter().zip(BACKGROUND_RGB) {
+            if bg.len() == c.px.len() {
+                let pts: Vec<(f64, f64)> = c.px.iter().copied().zip(bg.iter().copied()).collect();
+                draw_curve(&mut chart, &pts, rgb, 2)?;
             }
         }
         if c.falloff.len() == c.px.len() {
