@@ -185,7 +185,8 @@ pub struct BackgroundReport {
     pub continuum_intervals: usize,
     /// Its coefficients (≥ 0) per channel.
     pub continuum_coefficients: [Vec<f64>; 3],
-    /// Largest continuum value over the profile's peak.
+    /// Largest height of offset + continuum above its own minimum over the profile's peak (0
+    /// without a continuum; the spline's coefficients alone share a constant with the offset).
     pub continuum_peak_relative: f64,
     /// Degree J of the fall-off V(u) = 1 + Σ vⱼ uʲ (0: none).
     pub falloff_degree: usize,

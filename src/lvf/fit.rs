@@ -1025,10 +1025,21 @@ pub fn calibrate_whole_profile(
         .cloned()
         .fold(f64::MIN, f64::max)
         .max(1e-300);
-    let cont_peak = (0..3)
-        .flat_map(|c| (0..n).map(move |i| (c, i)))
-        .map(|(c, i)| cont_of(c, i))
-        .fold(0.0f64, f64::max);
+    // The free offset and the spline (a partition of unity) share the constant, so the spline
+    // alone is not meaningful: the continuum's size is that of everything that is not lines
+    // (offset + continuum), above its own minimum, when a continuum was fitted.
+    let cont_peak = if nc == 0 {
+        0.0
+    } else {
+        curves
+            .background
+            .iter()
+            .map(|b| {
+                let lo = b.iter().cloned().fold(f64::INFINITY, f64::min);
+                b.iter().map(|v| v - lo).fold(0.0f64, f64::max)
+            })
+            .fold(0.0f64, f64::max)
+    };
 
     // Model-choice systematic at the 400/700 nm positions: the largest difference to any other
     // candidate within ΔBIC ≤ 10 and, when a continuum was chosen, to every other continuum
