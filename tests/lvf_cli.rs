@@ -120,3 +120,88 @@ fn lamp_image_without_lines_and_roi_outside_exit_2_with_the_cause() {
     assert!(stderr(&o).contains("extends outside"), "{}", stderr(&o));
     assert!(!dir.path().join("o.json").exists(), "no output on failure");
 }
+
+/// Issue 13 ("garbage is detected"): `lvf calibrate` on a frame that is not a lamp photo (a
+/// broadband blackbody through the LVF) and on a CFL image with `--lamp hg` must not exit 0
+/// silently: either exit 2 with a message, or warnings on stderr and in lvf.json. Without
+/// `--roi` the whole image is used.
+#[test]
+fn calibrate_on_a_non_lamp_frame_or_the_wrong_lamp_is_refused_or_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let o = lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p("cfl.tiff"),
+        "--truth",
+        &p("truth.json"),
+        "--lamp",
+        "cfl",
+        "--continuum",
+        "0.05",
+        "--continuum-spectrum",
+        "cfl",
+        "--seed",
+        "8",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // a blackbody through the same LVF: broadband, no lines
+    let bb: String = (360..=830)
+        .step_by(5)
+        .map(|nm| {
+            let l = nm as f64 * 1e-9;
+            let v = 1.0 / (l.powi(5) * ((1.4388e-2 / (l * 3000.0)).exp() - 1.0));
+            format!("{nm},{}\n", v / 1e30)
+        })
+        .collect();
+    std::fs::write(p("bb.csv"), format!("wavelength_nm,value\n{bb}")).unwrap();
+    let o = lumifit(&[
+        "synth",
+        "lvf-capture",
+        "--spectrum",
+        &p("bb.csv"),
+        "--lvf",
+        &p("truth.json"),
+        "--seed",
+        "9",
+        "--out",
+        &p("bb.tiff"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (img, lamp) in [("cfl.tiff", "hg"), ("bb.tiff", "hg")] {
+        let out = p(&format!("{img}.json"));
+        let o = lumifit(&[
+            "lvf",
+            "calibrate",
+            &p(img),
+            "--axis",
+            "x",
+            "--lamp",
+            lamp,
+            "--out",
+            &out,
+        ]);
+        let err = stderr(&o);
+        if o.status.success() {
+            let cal: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+            let n = cal["warnings"].as_array().map_or(0, |w| w.len());
+            assert!(
+                n > 0 && err.contains("warning"),
+                "{img} with --lamp {lamp}: exit 0 without a warning: {cal}"
+            );
+        } else {
+            assert_eq!(o.status.code(), Some(2), "{img}: {err}");
+            assert!(
+                err.contains(img),
+                "{img}: the message names the image: {err}"
+            );
+            assert!(
+                !std::path::Path::new(&out).exists(),
+                "{img}: nothing written"
+            );
+        }
+        eprintln!("{img} --lamp {lamp}: exit {:?}: {err}", o.status.code());
+    }
+}

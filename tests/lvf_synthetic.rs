@@ -21,6 +21,8 @@ fn spec(lamp: Lamp, noise: f64, seed: u64) -> LvfSynthSpec {
         camera: default_camera().unwrap(),
         noise,
         vignetting: 0.2,
+        vignetting_shape: lumifit::lvf::synth::VignettingShape::Quadratic,
+        continuum: None,
         seed,
     }
 }

@@ -72,6 +72,22 @@ pub fn read_camera(path: Option<&Path>) -> Result<Camera> {
             )?,
             source: DEFAULT_CAMERA_NAME.to_string(),
         }),
+        Some(p) if !p.is_file() => match database_entry(p) {
+            Some((file, name)) => {
+                let (bytes, source) = super::read_input(&file)?;
+                Ok(Camera {
+                    curves: parse_camera_database(&bytes, &source, &name)?,
+                    source: format!("{source}:{name}"),
+                })
+            }
+            None => {
+                let (bytes, source) = super::read_input(p)?;
+                Ok(Camera {
+                    curves: parse_camera(&bytes, &source)?,
+                    source,
+                })
+            }
+        },
         Some(p) => {
             let (bytes, source) = super::read_input(p)?;
             Ok(Camera {
@@ -80,6 +96,92 @@ pub fn read_camera(path: Option<&Path>) -> Result<Camera> {
             })
         }
     }
+}
+
+/// `FILE.csv:NAME` with an existing FILE.csv: one camera of a database table.
+fn database_entry(p: &Path) -> Option<(std::path::PathBuf, String)> {
+    let s = p.to_str()?;
+    let (file, name) = s.rsplit_once(':')?;
+    let file = Path::new(file);
+    (file.is_file() && !name.trim().is_empty())
+        .then(|| (file.to_path_buf(), name.trim().to_string()))
+}
+
+/// One camera of a database table in long format `camera,wavelength_nm,r,g,b` (the Jiang et al.
+/// 2013 database as exported in `../shared/data/camera/`): the rows whose first field equals
+/// `name` (case-insensitive), through the same checks as [`parse_camera`]. `--camera
+/// FILE.csv:NAME` reads it.
+///
+/// # Errors
+/// [`Error::Parse`] naming the source and line for a bad header or number, or when no row is
+/// named `name` (the message lists the names there are).
+pub fn parse_camera_database(bytes: &[u8], source: &str, name: &str) -> Result<MultiSpectrum> {
+    let text = crate::table::as_text(
+        bytes,
+        source,
+        "a camera database camera,wavelength_nm,r,g,b",
+    )?;
+    let mut header_seen = false;
+    let mut names: Vec<String> = Vec::new();
+    let mut csv = String::from("wavelength_nm,r,g,b\n");
+    let mut n = 0;
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = t.split(',').map(str::trim).collect();
+        if !header_seen {
+            let ok = fields.len() == 5 && fields[0].eq_ignore_ascii_case("camera");
+            if !ok {
+                return Err(Error::parse(
+                    source,
+                    i + 1,
+                    format!("header '{t}'; expected camera,wavelength_nm,r,g,b"),
+                ));
+            }
+            header_seen = true;
+            continue;
+        }
+        if fields.len() != 5 {
+            return Err(Error::parse(
+                source,
+                i + 1,
+                format!(
+                    "{} fields; expected camera,wavelength_nm,r,g,b",
+                    fields.len()
+                ),
+            ));
+        }
+        if !names.iter().any(|n| n == fields[0]) {
+            names.push(fields[0].to_string());
+        }
+        if fields[0].eq_ignore_ascii_case(name) {
+            for f in &fields[1..] {
+                if f.parse::<f64>().map_or(true, |v| !v.is_finite()) {
+                    return Err(Error::parse(
+                        source,
+                        i + 1,
+                        format!("'{f}' is not a finite number"),
+                    ));
+                }
+            }
+            csv.push_str(&fields[1..].join(","));
+            csv.push('\n');
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return Err(Error::parse(
+            source,
+            0,
+            format!(
+                "no camera named '{name}'; the table holds: {}",
+                names.join(", ")
+            ),
+        ));
+    }
+    parse_camera(csv.as_bytes(), &format!("{source}:{name}"))
 }
 
 impl Camera {

@@ -65,7 +65,7 @@ pub fn resolve_illuminant(flag: &str, arg: &str) -> Result<Illuminant> {
     }
 }
 
-/// `--lamp`: `hg` (mercury), `cfl`, or a CSV `wavelength_nm[,relative_power]`.
+/// `--lamp`: `hg` (mercury), `hg-weak` (weak 405/408 nm), `cfl`, or a CSV `wavelength_nm[,relative_power]`.
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] when the argument is neither a lamp name nor an existing file; the
@@ -74,12 +74,13 @@ pub fn resolve_lamp(arg: &str) -> Result<Lamp> {
     match arg.to_ascii_lowercase().as_str() {
         "hg" | "mercury" => Ok(Lamp::mercury()),
         "cfl" => Ok(Lamp::cfl()),
+        "hg-weak" => Ok(Lamp::mercury_weak_violet()),
         _ => {
             let path = Path::new(arg);
             if !path.is_file() {
                 return Err(Error::invalid(
                     "--lamp",
-                    format!("'{arg}' is neither hg, cfl nor an existing CSV file wavelength_nm[,relative_power]"),
+                    format!("'{arg}' is neither hg, hg-weak, cfl nor an existing CSV file wavelength_nm[,relative_power]"),
                 ));
             }
             let (bytes, src) = super::read_input(path)?;

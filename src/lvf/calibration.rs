@@ -140,6 +140,83 @@ pub struct ProfileCurves {
     pub data: [Vec<f64>; 3],
     /// Model per channel.
     pub model: [Vec<f64>; 3],
+    /// The model without the lines: offset + fall-off × continuum, per channel (empty for
+    /// peaks).
+    pub background: [Vec<f64>; 3],
+    /// The fall-off V at each position (empty for peaks).
+    pub falloff: Vec<f64>,
+}
+
+/// One background model tried by the whole-profile fit.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CandidateReport {
+    /// Terms (`linear`, `falloff2`, `continuum6+falloff2`, …).
+    pub model: String,
+    /// BIC = N·ln(SSE/N) + k·ln N.
+    pub bic: f64,
+    /// BIC minus the chosen model's.
+    pub delta_bic: f64,
+    /// RMS of the profile residual (linear units).
+    pub profile_rms: f64,
+    /// This model's λ at the chosen map's 400 nm position (nm).
+    pub nm_at_400_position: Option<f64>,
+    /// This model's λ at the chosen map's 700 nm position (nm).
+    pub nm_at_700_position: Option<f64>,
+}
+
+/// What the whole-profile fit put under and over the lines (see [`crate::lvf::background`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BackgroundReport {
+    /// Chosen terms.
+    pub model: String,
+    /// `bic` (chosen among candidates) or `requested`.
+    pub selection: String,
+    /// The flat-field photo divided out, if any (`null`: none; the fall-off is modelled).
+    pub flat_field: Option<String>,
+    /// The normalised position the coefficients refer to.
+    pub u_definition: String,
+    /// Centre of the profile (px).
+    pub px_mid: f64,
+    /// Half its length (px).
+    pub half_length_px: f64,
+    /// Offset b, s per channel (r, g, b) in y = b + s·u + ….
+    pub offset: [[f64; 2]; 3],
+    /// Intervals of the cubic B-spline continuum on u ∈ [−1, 1] (0: none).
+    pub continuum_intervals: usize,
+    /// Its coefficients (≥ 0) per channel.
+    pub continuum_coefficients: [Vec<f64>; 3],
+    /// Largest height of offset + continuum above its own minimum over the profile's peak (0
+    /// without a continuum; the spline's coefficients alone share a constant with the offset).
+    pub continuum_peak_relative: f64,
+    /// Degree J of the fall-off V(u) = 1 + Σ vⱼ uʲ (0: none).
+    pub falloff_degree: usize,
+    /// v₁ … v_J.
+    pub falloff_coefficients: Vec<f64>,
+    /// V(−1), V(1).
+    pub falloff_at_ends: [f64; 2],
+    /// The radial fall-off estimated across the axis (`null` when the ROI has no strips).
+    pub radial_falloff: Option<crate::lvf::background::RadialFalloff>,
+    /// Whether it was applied (significant at 3σ).
+    pub radial_falloff_applied: bool,
+    /// Every model tried, best first.
+    pub candidates: Vec<CandidateReport>,
+    /// Whether `sigma_nm_at_400/700` include the model-choice systematic.
+    pub sigma_includes_systematic: bool,
+    /// What the σ include, in words.
+    pub systematic_note: String,
+}
+
+/// A blob in the residual that no listed lamp line explains.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct UnexplainedLine {
+    /// Where the map puts it (nm).
+    pub nm: f64,
+    /// Position (px).
+    pub px: f64,
+    /// Its amplitude over the profile's peak.
+    pub amplitude_relative: f64,
+    /// Its amplitude over its standard error.
+    pub significance: f64,
 }
 
 /// An LVF calibration (`lvf.json`).
@@ -163,12 +240,24 @@ pub struct LvfCalibration {
     pub fwhm_nm: f64,
     /// Standard uncertainty of the FWHM (nm).
     pub fwhm_sigma_nm: f64,
-    /// RMS of the line residuals (nm).
+    /// RMS of the line residuals (nm): each group of blended lines shifted alone, weighted by
+    /// its squared amplitude (its weight in the map fit).
     pub rms_residual_nm: f64,
-    /// Standard uncertainty of λ at the 400 nm position (nm).
+    /// RMS of the profile residual over the profile's peak (whole-profile only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rms_residual_relative: Option<f64>,
+    /// Standard uncertainty of λ at the 400 nm position (nm): √(statistical² + systematic²).
     pub sigma_nm_at_400: f64,
-    /// Standard uncertainty of λ at the 700 nm position (nm).
+    /// Standard uncertainty of λ at the 700 nm position (nm): √(statistical² + systematic²).
     pub sigma_nm_at_700: f64,
+    /// Statistical part at 400 nm (from the covariance of the map).
+    pub sigma_statistical_nm_at_400: f64,
+    /// Statistical part at 700 nm.
+    pub sigma_statistical_nm_at_700: f64,
+    /// Systematic part at 400 nm (background model choice; 0 when not estimated).
+    pub sigma_systematic_nm_at_400: f64,
+    /// Systematic part at 700 nm.
+    pub sigma_systematic_nm_at_700: f64,
     /// Lines inside the calibrated range.
     pub lines: Vec<LineReport>,
     /// Bands equidistant in wavelength from 400 to 700 nm.
@@ -177,6 +266,12 @@ pub struct LvfCalibration {
     pub map_selection: MapSelection,
     /// Whether λ increases with px.
     pub wavelength_increases_with_px: bool,
+    /// Continuum and fall-off of the whole-profile fit (`null` for peaks).
+    pub background: Option<BackgroundReport>,
+    /// Blobs in the residual that no listed line explains.
+    pub unexplained_lines: Vec<UnexplainedLine>,
+    /// What a user must look at: physically doubtful or unexplained results (also printed).
+    pub warnings: Vec<String>,
     /// Fit diagnostics: iterations, residual RMS of the profile, samples.
     pub diagnostics: serde_json::Value,
     /// Profile and model for plotting (not serialised).
@@ -222,8 +317,14 @@ impl LvfCalibration {
                 in_roi: px >= lo && px <= hi,
             });
         }
-        self.sigma_nm_at_400 = self.map.sigma_at(bands[0].px);
-        self.sigma_nm_at_700 = self.map.sigma_at(bands[n - 1].px);
+        self.sigma_statistical_nm_at_400 = self.map.sigma_at(bands[0].px);
+        self.sigma_statistical_nm_at_700 = self.map.sigma_at(bands[n - 1].px);
+        self.sigma_nm_at_400 = self
+            .sigma_statistical_nm_at_400
+            .hypot(self.sigma_systematic_nm_at_400);
+        self.sigma_nm_at_700 = self
+            .sigma_statistical_nm_at_700
+            .hypot(self.sigma_systematic_nm_at_700);
         self.bands = bands;
         Ok(())
     }

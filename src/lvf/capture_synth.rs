@@ -18,7 +18,8 @@
 //! - F is the gel's transmission (1 without a gel; held constant beyond its range);
 //! - Q_c the camera's sensitivity (zero outside its sampled range);
 //! - all are interpolated linearly onto the grid;
-//! - V = 1 − v·r² is vignetting, r the distance from the image centre over the half diagonal;
+//! - V is vignetting ([`VignettingShape`]: 1 − v·r² by default, r the distance from the image
+//!   centre over the half diagonal; cos⁴, linear tilt and off-centre shapes as in [`crate::lvf::synth`]);
 //! - E the exposure. [`Exposure::Auto`] sets E = 0.8 / max_{p,c} Σ_λ L₀(λ)·g(λ − λ(p))·Q_c(λ)·Δλ
 //!   with L₀ the *unfiltered* light — in reflectance mode a perfect white (R = 1) under the
 //!   illuminant — so captures of different patches and gels under one illuminant share one
@@ -37,6 +38,7 @@ use crate::capture::RgbFrame;
 use crate::error::{Error, Result};
 use crate::lvf::fit::Passband;
 use crate::lvf::profile::Axis;
+use crate::lvf::synth::VignettingShape;
 use crate::spectrum::{MultiSpectrum, Spectrum};
 
 /// First wavelength of the model's summation grid (nm).
@@ -106,6 +108,8 @@ pub struct LvfCaptureSpec {
     pub noise: f64,
     /// Vignetting strength v in 1 − v·r², in [0, 1).
     pub vignetting: f64,
+    /// Shape of the vignetting ([`VignettingShape`]; quadratic is 1 − v·r²).
+    pub vignetting_shape: VignettingShape,
     /// Random seed.
     pub seed: u64,
     /// Exposure.
@@ -155,6 +159,8 @@ pub struct LvfCaptureTruth {
     pub noise: f64,
     /// Vignetting strength.
     pub vignetting: f64,
+    /// Vignetting shape.
+    pub vignetting_shape: VignettingShape,
     /// Seed.
     pub seed: u64,
 }
@@ -420,14 +426,9 @@ pub fn render_lvf_capture(spec: &LvfCaptureSpec) -> Result<(RgbFrame, LvfCapture
             AUTO_PEAK / max
         }
     };
-    let (cx, cy) = (
-        (spec.width as f64 - 1.0) / 2.0,
-        (spec.height as f64 - 1.0) / 2.0,
-    );
-    let r2max = (cx * cx + cy * cy).max(1e-12);
     let vig = |x: usize, y: usize| {
-        let (dx, dy) = (x as f64 - cx, y as f64 - cy);
-        1.0 - spec.vignetting * (dx * dx + dy * dy) / r2max
+        spec.vignetting_shape
+            .at(spec.vignetting, spec.axis, x, y, spec.width, spec.height)
     };
     let mut rng = SplitMix64::new(spec.seed);
     let n = spec.width * spec.height;
@@ -502,6 +503,7 @@ pub fn render_lvf_capture(spec: &LvfCaptureSpec) -> Result<(RgbFrame, LvfCapture
         model_grid_nm: [MODEL_START_NM, MODEL_END_NM, MODEL_STEP_NM],
         noise: spec.noise,
         vignetting: spec.vignetting,
+        vignetting_shape: spec.vignetting_shape,
         seed: spec.seed,
     };
     Ok((frame, truth))
@@ -544,6 +546,7 @@ mod tests {
             camera: box_camera(),
             noise: 0.0,
             vignetting: 0.0,
+            vignetting_shape: VignettingShape::Quadratic,
             seed: 1,
             exposure: Exposure::Auto,
         }

@@ -1,14 +1,19 @@
 //! Whole-profile fit of an LVF lamp image by variable projection.
 //!
-//! Nonlinear parameters θ = (a0, a1[, a2], FWHM) with the map written in the normalised position
-//! u = (px − px_mid)/half_length as λ(u) = a0 + a1·u [+ a2·u²] (well conditioned); linear
-//! parameters per channel: background b + s·u and one amplitude ≥ 0 per line, solved by
-//! Lawson–Hanson non-negative least squares on the normal equations for every θ. θ is refined by
-//! the crate's Levenberg–Marquardt ([`fit::lm`](crate::fit::lm)) on the projected residual
-//! (central-difference Jacobian), started from the
-//! best few cells of a coarse grid over (a0, a1) at the guessed FWHM. The covariance of θ is
-//! s²(JᵀJ)⁻¹ with s² = SSE/(N − p − k) (N samples over all channels, p nonlinear, k active
-//! linear parameters) and is propagated to the coefficients in pixels.
+//! Nonlinear parameters θ = (a0, a1[, a2], FWHM[, v1 … vJ]) with the map written in the
+//! normalised position u = (px − px_mid)/half_length as λ(u) = a0 + a1·u [+ a2·u²] (well
+//! conditioned) and the fall-off V(u) = 1 + Σ vⱼ uʲ; linear parameters per channel: offset
+//! b + s·u, one amplitude ≥ 0 per line and the continuum's B-spline coefficients ≥ 0
+//! ([`crate::lvf::background`]), solved by Lawson–Hanson non-negative least squares on the normal
+//! equations for every θ. θ is refined by the crate's Levenberg–Marquardt
+//! ([`fit::lm`](crate::fit::lm)) on the projected residual (central-difference Jacobian), started
+//! from the best few cells of a coarse grid over (a0, a1) at the guessed FWHM with the offset
+//! only; the background terms (continuum, fall-off degree) are then chosen by BIC among refined
+//! candidates. The covariance of θ is s²(JᵀJ)⁻¹ with s² = SSE/(N − p − k) (N samples over all
+//! channels, p nonlinear, k active linear parameters) and is propagated to the coefficients in
+//! pixels; the spread between background models within ΔBIC ≤ 10 is reported as the systematic
+//! part of σ at 400/700 nm. [`assess`] then refuses physically impossible maps and flags what the
+//! model does not explain.
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -16,8 +21,13 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::fit::stats;
 use crate::fit::{levenberg_marquardt, LmOptions, Residuals};
+use crate::lvf::background::{
+    continuum_intervals_for, cubic_bspline_row, estimate_radial_falloff, falloff, BackgroundChoice,
+    BackgroundTerms, CONTINUUM_KNOT_FWHM,
+};
 use crate::lvf::calibration::{
-    LineReport, LvfCalibration, MapKind, MapModel, MapSelection, ProfileCurves,
+    BackgroundReport, CandidateReport, LineReport, LvfCalibration, MapKind, MapModel, MapSelection,
+    ProfileCurves, UnexplainedLine,
 };
 use crate::lvf::lamp::Lamp;
 use crate::lvf::profile::Profile;
@@ -154,6 +164,15 @@ pub struct FitOptions {
     pub direction: Direction,
     /// Number of bands from 400 to 700 nm.
     pub n_bands: usize,
+    /// Continuum and fall-off terms (see [`crate::lvf::background`]).
+    pub background: BackgroundChoice,
+    /// Estimate a radial fall-off from the strips across the axis and divide it out
+    /// ([`crate::lvf::background::estimate_radial_falloff`]).
+    pub radial_falloff: bool,
+    /// Knot spacings of the continuum candidates (× FWHM, coarsest first; the first is also
+    /// the fixed choice). Default
+    /// [`CONTINUUM_KNOT_FWHM`].
+    pub continuum_knots_fwhm: Vec<f64>,
 }
 
 impl Default for FitOptions {
@@ -164,6 +183,9 @@ impl Default for FitOptions {
             fwhm_guess_nm: 25.0,
             direction: Direction::Auto,
             n_bands: 31,
+            background: BackgroundChoice::Auto,
+            radial_falloff: true,
+            continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
         }
     }
 }
@@ -243,7 +265,9 @@ pub(crate) fn nnls_gram(g: &DMatrix<f64>, h: &DVector<f64>, n_free: usize) -> DV
     x
 }
 
-/// The separable least-squares problem on one profile.
+/// The separable least-squares problem on one profile: θ = (map coefficients in u, FWHM,
+/// fall-off coefficients v_1…v_J); linear per channel: offset b + s·u, one amplitude ≥ 0 per
+/// line, continuum coefficients ≥ 0 (see [`crate::lvf::background`]).
 pub(crate) struct Problem<'a> {
     u: Vec<f64>,
     y: [&'a [f64]; 3],
@@ -251,6 +275,13 @@ pub(crate) struct Problem<'a> {
     passband: &'a Passband,
     px_mid: f64,
     half: f64,
+    /// Number of map coefficients (2 linear, 3 quadratic).
+    n_map: usize,
+    terms: BackgroundTerms,
+    /// Continuum basis at every sample, row-major n × n_continuum (independent of θ).
+    spline: Vec<f64>,
+    /// A fixed fall-off at every sample (radial, estimated across the axis), or empty.
+    vfix: Vec<f64>,
 }
 
 /// Evaluation of θ: residuals (channel-major), linear coefficients per channel, SSE.
@@ -264,45 +295,112 @@ pub(crate) struct Eval {
 const N_BG: usize = 2;
 
 impl<'a> Problem<'a> {
-    fn new(px: &[f64], y: [&'a [f64]; 3], lines: Vec<f64>, passband: &'a Passband) -> Self {
+    fn new(
+        px: &[f64],
+        y: [&'a [f64]; 3],
+        lines: Vec<f64>,
+        passband: &'a Passband,
+        n_map: usize,
+        terms: BackgroundTerms,
+        vfix: Vec<f64>,
+    ) -> Self {
         let lo = px.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = px.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
         let px_mid = 0.5 * (lo + hi);
         let half = (0.5 * (hi - lo)).max(0.5);
+        let u: Vec<f64> = px.iter().map(|p| (p - px_mid) / half).collect();
+        let spline = Self::spline_rows(&u, terms);
         Self {
-            u: px.iter().map(|p| (p - px_mid) / half).collect(),
+            u,
             y,
             lines,
             passband,
             px_mid,
             half,
+            n_map,
+            terms,
+            spline,
+            vfix,
         }
     }
 
-    fn lambda(theta: &[f64], u: f64) -> f64 {
-        let mut l = theta[0] + theta[1] * u;
-        if theta.len() == 4 {
-            l += theta[2] * u * u;
+    fn spline_rows(u: &[f64], terms: BackgroundTerms) -> Vec<f64> {
+        let k = terms.n_continuum();
+        let mut s = vec![0.0; u.len() * k];
+        if k > 0 {
+            for (i, &ui) in u.iter().enumerate() {
+                cubic_bspline_row(ui, terms.continuum_intervals, &mut s[i * k..(i + 1) * k]);
+            }
         }
-        l
+        s
     }
 
-    fn fwhm(theta: &[f64]) -> f64 {
-        theta[theta.len() - 1]
+    /// The same data with another map degree and other background terms.
+    fn with(&self, n_map: usize, terms: BackgroundTerms) -> Problem<'a> {
+        Problem {
+            u: self.u.clone(),
+            y: self.y,
+            lines: self.lines.clone(),
+            passband: self.passband,
+            px_mid: self.px_mid,
+            half: self.half,
+            n_map,
+            terms,
+            spline: Self::spline_rows(&self.u, terms),
+            vfix: self.vfix.clone(),
+        }
     }
 
-    /// Design matrix for θ with the given line wavelengths.
+    fn n_theta(&self) -> usize {
+        self.n_map + 1 + self.terms.falloff_degree
+    }
+
+    fn lambda(&self, theta: &[f64], u: f64) -> f64 {
+        theta[..self.n_map]
+            .iter()
+            .rev()
+            .fold(0.0, |acc, c| acc * u + c)
+    }
+
+    fn fwhm(&self, theta: &[f64]) -> f64 {
+        theta[self.n_map]
+    }
+
+    fn falloff_coefficients<'t>(&self, theta: &'t [f64]) -> &'t [f64] {
+        &theta[self.n_map + 1..]
+    }
+
+    /// θ of this problem from θ of another (map, FWHM kept; fall-off kept where both have it).
+    fn theta_from(&self, other: &Problem, theta: &[f64]) -> Vec<f64> {
+        let mut t = vec![0.0; self.n_theta()];
+        let k = self.n_map.min(other.n_map);
+        t[..k].copy_from_slice(&theta[..k]);
+        t[self.n_map] = other.fwhm(theta);
+        let of = other.falloff_coefficients(theta);
+        for (j, v) in of.iter().enumerate().take(self.terms.falloff_degree) {
+            t[self.n_map + 1 + j] = *v;
+        }
+        t
+    }
+
+    /// Design matrix for θ with the given line wavelengths: offset, lines, continuum.
     fn design(&self, theta: &[f64], lines: &[f64]) -> DMatrix<f64> {
         let n = self.u.len();
-        let k = N_BG + lines.len();
-        let fwhm = Self::fwhm(theta);
+        let nc = self.terms.n_continuum();
+        let k = N_BG + lines.len() + nc;
+        let fwhm = self.fwhm(theta);
+        let v = self.falloff_coefficients(theta);
         let mut phi = DMatrix::zeros(n, k);
         for (i, &u) in self.u.iter().enumerate() {
-            let lam = Self::lambda(theta, u);
+            let lam = self.lambda(theta, u);
+            let f = falloff(v, u) * self.vfix.get(i).copied().unwrap_or(1.0);
             phi[(i, 0)] = 1.0;
             phi[(i, 1)] = u;
             for (j, &l) in lines.iter().enumerate() {
-                phi[(i, N_BG + j)] = self.passband.eval(l - lam, fwhm);
+                phi[(i, N_BG + j)] = f * self.passband.eval(l - lam, fwhm);
+            }
+            for j in 0..nc {
+                phi[(i, N_BG + lines.len() + j)] = f * self.spline[i * nc + j];
             }
         }
         phi
@@ -337,9 +435,19 @@ impl<'a> Problem<'a> {
         self.eval_with(theta, &self.lines)
     }
 
-    fn valid(theta: &[f64]) -> bool {
-        let f = Self::fwhm(theta);
-        theta.iter().all(|v| v.is_finite()) && f > 1.0 && f < 200.0 && theta[1].abs() > 1e-3
+    /// Inside the domain: finite, 1 < FWHM < 200 nm, a non-vanishing slope, and a fall-off
+    /// that stays between 0.05 and 5 over the profile.
+    fn valid(&self, theta: &[f64]) -> bool {
+        let f = self.fwhm(theta);
+        let v = self.falloff_coefficients(theta);
+        theta.iter().all(|v| v.is_finite())
+            && f > 1.0
+            && f < 200.0
+            && theta[1].abs() > 1e-3
+            && (0..=20).all(|i| {
+                let x = falloff(v, -1.0 + 0.1 * i as f64);
+                (0.05..5.0).contains(&x)
+            })
     }
 
     fn jacobian(&self, theta: &[f64]) -> DMatrix<f64> {
@@ -347,7 +455,13 @@ impl<'a> Problem<'a> {
         let cols: Vec<Vec<f64>> = (0..p)
             .into_par_iter()
             .map(|j| {
-                let h = 1e-4 * theta[j].abs().max(1.0) * if j == p - 1 { 0.1 } else { 1.0 };
+                let h = if j < self.n_map {
+                    1e-4 * theta[j].abs().max(1.0)
+                } else if j == self.n_map {
+                    1e-5 * theta[j].abs().max(1.0)
+                } else {
+                    1e-5
+                };
                 let mut tp = theta.to_vec();
                 let mut tm = theta.to_vec();
                 tp[j] += h;
@@ -364,9 +478,8 @@ impl<'a> Problem<'a> {
         DMatrix::from_fn(m, p, |i, j| cols[j][i])
     }
 
-    /// Levenberg–Marquardt ([`fit::lm`](crate::fit::lm)) on the projected residual. Returns θ,
-    /// its evaluation, the final Jacobian and the number of iterations.
-    fn levenberg_marquardt(&self, theta0: &[f64]) -> (Vec<f64>, Eval, DMatrix<f64>, usize) {
+    /// Levenberg–Marquardt ([`fit::lm`](crate::fit::lm)) on the projected residual.
+    fn levenberg_marquardt(&self, theta0: &[f64]) -> Fitted {
         let p = theta0.len();
         let opts = LmOptions {
             covariance: true,
@@ -379,14 +492,34 @@ impl<'a> Problem<'a> {
             Some(j) => DMatrix::from_column_slice(m, p, &j),
             None => self.jacobian(&rep.theta),
         };
-        (rep.theta, eval, jac, rep.iterations)
+        Fitted {
+            theta: rep.theta,
+            eval,
+            jac,
+            iterations: rep.iterations,
+        }
+    }
+
+    /// BIC = N·ln(SSE/N) + k·ln N of a fit of this problem.
+    fn bic(&self, fit: &Fitted) -> f64 {
+        let n = (3 * self.u.len()) as f64;
+        let k = (self.n_theta() + fit.eval.n_active) as f64;
+        n * (fit.eval.sse.max(1e-300) / n).ln() + k * n.ln()
     }
 }
 
-/// The projected problem of θ (p = 3 or 4 nonlinear parameters) for [`fit::lm`](crate::fit::lm):
-/// residuals of all three channels with the linear coefficients solved by NNLS; θ outside
-/// 1 < FWHM < 200 nm or with a vanishing slope is outside the domain. The Jacobian is the
-/// problem's own central differences (one rayon task per column, steps scaled per parameter).
+/// A refined θ with its evaluation, Jacobian and iteration count.
+pub(crate) struct Fitted {
+    theta: Vec<f64>,
+    eval: Eval,
+    jac: DMatrix<f64>,
+    iterations: usize,
+}
+
+/// The projected problem of θ for [`fit::lm`](crate::fit::lm): residuals of all three channels
+/// with the linear coefficients solved by NNLS; θ outside [`Problem::valid`] is outside the
+/// domain. The Jacobian is the problem's own central differences (one rayon task per column,
+/// steps scaled per parameter).
 struct Projected<'p, 'a> {
     problem: &'p Problem<'a>,
     p: usize,
@@ -400,7 +533,7 @@ impl Residuals for Projected<'_, '_> {
         self.p
     }
     fn residuals(&self, theta: &[f64], out: &mut [f64]) -> bool {
-        if !Problem::valid(theta) {
+        if !self.problem.valid(theta) {
             return false;
         }
         out.copy_from_slice(&self.problem.eval(theta).residual);
@@ -512,11 +645,13 @@ pub(crate) fn group_lines(lines: &[f64], gap: f64) -> Vec<Vec<usize>> {
     groups
 }
 
-/// Whole-profile calibration of an LVF lamp profile (see the module docs).
+/// Whole-profile calibration of an LVF lamp profile (see the module docs and
+/// [`crate::lvf::background`]).
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] when the profile shows no lines or the direction cannot be told;
-/// [`Error::Numerical`] when no fit explains the profile.
+/// [`Error::Numerical`] when no fit explains the profile, or the fitted map is physically
+/// impossible (see [`assess`]).
 pub fn calibrate_whole_profile(
     profile: &Profile,
     lamp: &Lamp,
@@ -534,6 +669,9 @@ pub fn calibrate_whole_profile(
         [&cys[0], &cys[1], &cys[2]],
         lines.clone(),
         &opts.passband,
+        2,
+        BackgroundTerms::LINEAR,
+        Vec::new(),
     );
     let a0s: Vec<f64> = (0..=200).map(|i| 350.0 + 2.0 * i as f64).collect();
     let mut a1s = Vec::new();
@@ -567,32 +705,104 @@ pub fn calibrate_whole_profile(
         }
     }
 
-    // Refine on the full profile.
+    // Radial fall-off from the strips across the axis (applied when significant).
+    let radial = if opts.radial_falloff {
+        estimate_radial_falloff(profile)
+    } else {
+        None
+    };
+    let radial_applied = radial
+        .as_ref()
+        .is_some_and(|r| r.kappa[0].abs() > RADIAL_APPLY_SIGMA * r.kappa_sigma[0]);
+    let vfix = match (&radial, radial_applied) {
+        (Some(r), true) => r.along.clone(),
+        _ => Vec::new(),
+    };
+
+    // Refine on the full profile with the linear offset only.
     let full = Problem::new(
         &profile.px,
         [&profile.values[0], &profile.values[1], &profile.values[2]],
         lines.clone(),
         &opts.passband,
+        2,
+        BackgroundTerms::LINEAR,
+        vfix,
     );
-    let mut best: Option<(Vec<f64>, Eval, DMatrix<f64>, usize)> = None;
-    for &(a0, a1) in &starts {
-        let fit = full.levenberg_marquardt(&[a0, sign * a1, fwhm0]);
-        if best.as_ref().is_none_or(|b| fit.1.sse < b.1.sse) {
-            best = Some(fit);
-        }
-    }
-    let Some(linear) = best else {
+    let mut plain: Vec<Fitted> = starts
+        .par_iter()
+        .map(|&(a0, a1)| full.levenberg_marquardt(&[a0, sign * a1, fwhm0]))
+        .collect();
+    plain.sort_by(|a, b| a.eval.sse.total_cmp(&b.eval.sse));
+    let Some(plain_best) = plain.first() else {
         return Err(Error::Numerical {
             what: "LVF whole-profile fit".into(),
             reason: "no starting point".into(),
         });
     };
+
+    // Background terms: candidates, each refined from the best (and for a continuum also the
+    // second best) linear-offset fit, chosen by BIC.
+    let span = (full.lambda(&plain_best.theta, 1.0) - full.lambda(&plain_best.theta, -1.0)).abs();
+    let fwhm_plain = full.fwhm(&plain_best.theta).min(4.0 * fwhm0);
+    let k_of = |knot: f64| continuum_intervals_for(span, fwhm_plain, knot);
+    let knots: &[f64] = if opts.continuum_knots_fwhm.is_empty() {
+        &CONTINUUM_KNOT_FWHM
+    } else {
+        &opts.continuum_knots_fwhm
+    };
+    let k_coarse = k_of(knots[0]);
+    let with_k = |continuum: bool, falloff_degree: usize| BackgroundTerms {
+        continuum_intervals: if continuum { k_coarse } else { 0 },
+        falloff_degree,
+    };
+    let mut auto = vec![with_k(false, 0), with_k(true, 0)];
+    for &knot in &knots[1..] {
+        let t = BackgroundTerms {
+            continuum_intervals: k_of(knot),
+            falloff_degree: 0,
+        };
+        if !auto.contains(&t) {
+            auto.push(t);
+        }
+    }
+    let (candidates, selection_rule) = match opts.background {
+        BackgroundChoice::Auto => (auto, "bic"),
+        BackgroundChoice::Fixed {
+            continuum,
+            falloff_degree,
+        } => (vec![with_k(continuum, falloff_degree.min(6))], "requested"),
+    };
+    let mut fitted: Vec<(Problem, Fitted, f64)> = candidates
+        .par_iter()
+        .map(|&terms| {
+            let pr = full.with(2, terms);
+            let mut best = pr.levenberg_marquardt(&pr.theta_from(&full, &plain_best.theta));
+            if terms.n_continuum() > 0 {
+                if let Some(second) = plain.get(1) {
+                    let f = pr.levenberg_marquardt(&pr.theta_from(&full, &second.theta));
+                    if f.eval.sse < best.eval.sse {
+                        best = f;
+                    }
+                }
+            }
+            let bic = pr.bic(&best);
+            (pr, best, bic)
+        })
+        .collect();
+    let best_i = (0..fitted.len())
+        .min_by(|&a, &b| fitted[a].2.total_cmp(&fitted[b].2))
+        .unwrap_or(0);
+    let best_bic = fitted[best_i].2;
+    let (chosen_pr, chosen_fit, _) = fitted.swap_remove(best_i);
+    let others = fitted;
     let n_obs = 3 * profile.px.len();
 
     // Map degree.
-    let (chosen, selection) = match opts.map {
+    let (pr, chosen, selection) = match opts.map {
         MapChoice::Linear => (
-            linear,
+            chosen_pr,
+            chosen_fit,
             MapSelection {
                 requested: "linear".into(),
                 f_statistic: None,
@@ -601,10 +811,11 @@ pub fn calibrate_whole_profile(
             },
         ),
         MapChoice::Quadratic | MapChoice::Auto => {
-            let t = &linear.0;
-            let quad = full.levenberg_marquardt(&[t[0], t[1], 0.0, t[2]]);
+            let qpr = chosen_pr.with(3, chosen_pr.terms);
+            let quad = qpr.levenberg_marquardt(&qpr.theta_from(&chosen_pr, &chosen_fit.theta));
             if opts.map == MapChoice::Quadratic {
                 (
+                    qpr,
                     quad,
                     MapSelection {
                         requested: "quadratic".into(),
@@ -614,16 +825,19 @@ pub fn calibrate_whole_profile(
                     },
                 )
             } else {
-                let dof2 = n_obs.saturating_sub(4 + quad.1.n_active).max(1) as f64;
-                let f = (linear.1.sse - quad.1.sse) / (quad.1.sse / dof2).max(1e-300);
-                let cov = covariance(&quad.2, quad.1.sse, dof2);
+                let dof2 = n_obs
+                    .saturating_sub(qpr.n_theta() + quad.eval.n_active)
+                    .max(1) as f64;
+                let f = (chosen_fit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
+                let cov = covariance(&quad.jac, quad.eval.sse, dof2);
                 let t_a2 = cov
                     .as_ref()
-                    .map(|c| quad.0[2] / c[(2, 2)].max(1e-300).sqrt())
+                    .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
                     .unwrap_or(0.0);
                 // F(1, ∞) at p = 0.001 is 10.83.
                 if f > 10.83 && t_a2.abs() > 3.0 {
                     (
+                        qpr,
                         quad,
                         MapSelection {
                             requested: "auto".into(),
@@ -634,7 +848,8 @@ pub fn calibrate_whole_profile(
                     )
                 } else {
                     (
-                        linear,
+                        chosen_pr,
+                        chosen_fit,
                         MapSelection {
                             requested: "auto".into(),
                             f_statistic: Some(f),
@@ -646,8 +861,14 @@ pub fn calibrate_whole_profile(
             }
         }
     };
-    let (theta, eval, jac, iterations) = chosen;
+    let Fitted {
+        theta,
+        eval,
+        jac,
+        iterations,
+    } = chosen;
     let p = theta.len();
+    let deg = pr.n_map;
     let dof = n_obs.saturating_sub(p + eval.n_active).max(1) as f64;
     let cov_theta = covariance(&jac, eval.sse, dof).ok_or_else(|| Error::Numerical {
         what: "LVF whole-profile fit".into(),
@@ -656,11 +877,10 @@ pub fn calibrate_whole_profile(
             profile.source
         ),
     })?;
-    let fwhm = theta[p - 1];
+    let fwhm = pr.fwhm(&theta);
 
     // Map in pixels: λ = Σ a_k ((px − m)/h)^k  →  Σ c_i px^i, c = T a.
-    let (m, h) = (full.px_mid, full.half);
-    let deg = p - 1; // number of map coefficients
+    let (m, h) = (pr.px_mid, pr.half);
     let mut t = DMatrix::zeros(deg, deg);
     t[(0, 0)] = 1.0;
     t[(0, 1)] = -m / h;
@@ -687,16 +907,9 @@ pub fn calibrate_whole_profile(
     };
 
     // Per-line residuals: shift each group of blended lines (closer than half the FWHM) alone.
-    let lam_lo = full
-        .u
-        .iter()
-        .map(|&u| Problem::lambda(&theta, u))
-        .fold(f64::INFINITY, f64::min);
-    let lam_hi = full
-        .u
-        .iter()
-        .map(|&u| Problem::lambda(&theta, u))
-        .fold(f64::NEG_INFINITY, f64::max);
+    let lams: Vec<f64> = pr.u.iter().map(|&u| pr.lambda(&theta, u)).collect();
+    let lam_lo = lams.iter().cloned().fold(f64::INFINITY, f64::min);
+    let lam_hi = lams.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let in_range: Vec<usize> = (0..lines.len())
         .filter(|&i| lines[i] >= lam_lo - 0.5 * fwhm && lines[i] <= lam_hi + 0.5 * fwhm)
         .collect();
@@ -721,7 +934,12 @@ pub fn calibrate_whole_profile(
         })
         .collect();
     let mut shifts = vec![0.0; in_lines.len()];
-    let mut group_res = Vec::new();
+    let mut group_res: Vec<(f64, f64)> = Vec::new();
+    let mut all_centroids = lines.clone();
+    // the lines out of range keep their wavelengths; the in-range ones are replaced by centroids
+    all_centroids.retain(|l| !in_lines.contains(l));
+    let n_out = all_centroids.len();
+    all_centroids.extend(centroids.iter().copied());
     for (gi, g) in groups.iter().enumerate() {
         // A group with no amplitude in any channel is not observed.
         let amp: f64 = g
@@ -736,20 +954,26 @@ pub fn calibrate_whole_profile(
             continue;
         }
         let cost = |d: f64| {
-            let mut l = centroids.clone();
-            l[gi] += d;
-            full.eval_with(&theta, &l).sse
+            let mut l = all_centroids.clone();
+            l[n_out + gi] += d;
+            pr.eval_with(&theta, &l).sse
         };
         let d = brent_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-4);
         for &k in g {
             shifts[k] = d;
         }
-        group_res.push(d);
+        group_res.push((d, amp));
     }
-    let rms = if group_res.is_empty() {
+    let sw: f64 = group_res.iter().map(|(_, a)| a * a).sum();
+    let rms = if group_res.is_empty() || sw <= 0.0 {
         0.0
     } else {
-        (group_res.iter().map(|d| d * d).sum::<f64>() / group_res.len() as f64).sqrt()
+        (group_res.iter().map(|(d, a)| a * a * d * d).sum::<f64>() / sw).sqrt()
+    };
+    let rms_unweighted = if group_res.is_empty() {
+        0.0
+    } else {
+        (group_res.iter().map(|(d, _)| d * d).sum::<f64>() / group_res.len() as f64).sqrt()
     };
     let line_reports: Vec<LineReport> = in_range
         .iter()
@@ -762,7 +986,27 @@ pub fn calibrate_whole_profile(
         })
         .collect();
 
+    // Curves: data, model, what is not lines (offset + fall-off × continuum), fall-off.
     let n = profile.px.len();
+    let nc = pr.terms.n_continuum();
+    let vcoef = pr.falloff_coefficients(&theta).to_vec();
+    let fall: Vec<f64> =
+        pr.u.iter()
+            .enumerate()
+            .map(|(i, &u)| falloff(&vcoef, u) * pr.vfix.get(i).copied().unwrap_or(1.0))
+            .collect();
+    let cont_of = |c: usize, i: usize| -> f64 {
+        let a = &eval.alpha[c];
+        (0..nc)
+            .map(|j| a[N_BG + lines.len() + j] * pr.spline[i * nc + j])
+            .sum::<f64>()
+            * fall[i]
+    };
+    let background_curve: [Vec<f64>; 3] = std::array::from_fn(|c| {
+        (0..n)
+            .map(|i| eval.alpha[c][0] + eval.alpha[c][1] * pr.u[i] + cont_of(c, i))
+            .collect()
+    });
     let curves = ProfileCurves {
         px: profile.px.clone(),
         data: profile.values.clone(),
@@ -771,7 +1015,99 @@ pub fn calibrate_whole_profile(
                 .map(|i| profile.values[c][i] - eval.residual[c * n + i])
                 .collect()
         }),
+        background: background_curve,
+        falloff: fall.clone(),
     };
+    let peak = profile
+        .values
+        .iter()
+        .flatten()
+        .cloned()
+        .fold(f64::MIN, f64::max)
+        .max(1e-300);
+    // The free offset and the spline (a partition of unity) share the constant, so the spline
+    // alone is not meaningful: the continuum's size is that of everything that is not lines
+    // (offset + continuum), above its own minimum, when a continuum was fitted.
+    let cont_peak = if nc == 0 {
+        0.0
+    } else {
+        curves
+            .background
+            .iter()
+            .map(|b| {
+                let lo = b.iter().cloned().fold(f64::INFINITY, f64::min);
+                b.iter().map(|v| v - lo).fold(0.0f64, f64::max)
+            })
+            .fold(0.0f64, f64::max)
+    };
+
+    // Model-choice systematic at the 400/700 nm positions: the largest difference to any other
+    // candidate within ΔBIC ≤ 10 and, when a continuum was chosen, to every other continuum
+    // (knot spacing) — how much the map depends on how the continuum is drawn.
+    let u_at = |nm: f64| map.inverse(nm).map(|px| (px - m) / h);
+    let (u400, u700) = (u_at(400.0), u_at(700.0));
+    let mut sys = [0.0f64; 2];
+    let mut candidate_reports: Vec<CandidateReport> = Vec::new();
+    let lam_of = |cpr: &Problem, th: &[f64], u: Option<f64>| u.map(|u| cpr.lambda(th, u));
+    candidate_reports.push(CandidateReport {
+        model: pr.terms.name(),
+        bic: best_bic,
+        delta_bic: 0.0,
+        profile_rms: (eval.sse / n_obs as f64).sqrt(),
+        nm_at_400_position: lam_of(&pr, &theta, u400),
+        nm_at_700_position: lam_of(&pr, &theta, u700),
+    });
+    for (cpr, cf, cb) in &others {
+        let l4 = lam_of(cpr, &cf.theta, u400);
+        let l7 = lam_of(cpr, &cf.theta, u700);
+        let same_family = pr.terms.n_continuum() > 0 && cpr.terms.n_continuum() > 0;
+        if cb - best_bic <= 10.0 || same_family {
+            if let Some(l) = l4 {
+                sys[0] = sys[0].max((l - 400.0).abs());
+            }
+            if let Some(l) = l7 {
+                sys[1] = sys[1].max((l - 700.0).abs());
+            }
+        }
+        candidate_reports.push(CandidateReport {
+            model: cpr.terms.name(),
+            bic: *cb,
+            delta_bic: cb - best_bic,
+            profile_rms: (cf.eval.sse / n_obs as f64).sqrt(),
+            nm_at_400_position: l4,
+            nm_at_700_position: l7,
+        });
+    }
+    candidate_reports.sort_by(|a, b| a.bic.total_cmp(&b.bic));
+    let background = BackgroundReport {
+        model: pr.terms.name(),
+        selection: selection_rule.into(),
+        flat_field: None,
+        u_definition: format!("u = (px − {m})/{h}"),
+        px_mid: m,
+        half_length_px: h,
+        offset: std::array::from_fn(|c| [eval.alpha[c][0], eval.alpha[c][1]]),
+        continuum_intervals: pr.terms.continuum_intervals,
+        continuum_coefficients: std::array::from_fn(|c| {
+            (0..nc)
+                .map(|j| eval.alpha[c][N_BG + lines.len() + j])
+                .collect()
+        }),
+        continuum_peak_relative: cont_peak / peak,
+        falloff_degree: pr.terms.falloff_degree,
+        falloff_coefficients: vcoef.clone(),
+        falloff_at_ends: [falloff(&vcoef, -1.0), falloff(&vcoef, 1.0)],
+        radial_falloff: radial,
+        radial_falloff_applied: radial_applied,
+        candidates: candidate_reports,
+        sigma_includes_systematic: selection_rule == "bic",
+        systematic_note: if selection_rule == "bic" {
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre) and errors common to all candidates (passband shape, line list) are not included".into()
+        } else {
+            "sigma_nm_at_400/700 are statistical only (one background model was requested, so there is no model-choice spread)".into()
+        },
+    };
+
     let mut cal = LvfCalibration {
         schema: crate::lvf::calibration::LVF_SCHEMA,
         method: "whole-profile".into(),
@@ -781,25 +1117,285 @@ pub fn calibrate_whole_profile(
         lamp: lamp.name.clone(),
         map,
         fwhm_nm: fwhm,
-        fwhm_sigma_nm: cov_theta[(p - 1, p - 1)].max(0.0).sqrt(),
+        fwhm_sigma_nm: cov_theta[(deg, deg)].max(0.0).sqrt(),
         rms_residual_nm: rms,
+        rms_residual_relative: None,
         sigma_nm_at_400: 0.0,
         sigma_nm_at_700: 0.0,
+        sigma_statistical_nm_at_400: 0.0,
+        sigma_statistical_nm_at_700: 0.0,
+        sigma_systematic_nm_at_400: sys[0],
+        sigma_systematic_nm_at_700: sys[1],
         lines: line_reports,
         bands: Vec::new(),
         map_selection: selection,
         wavelength_increases_with_px: increasing,
+        background: Some(background),
+        unexplained_lines: Vec::new(),
+        warnings: Vec::new(),
         diagnostics: serde_json::json!({
             "iterations": iterations,
             "profile_points": n,
             "profile_rms": (eval.sse / n_obs as f64).sqrt(),
             "coarse_starts": starts.len(),
             "active_linear_parameters": eval.n_active,
+            "rms_residual_nm_unweighted": rms_unweighted,
         }),
         curves,
     };
+    // Unexplained lines are searched for in the residual of the coarsest continuum when a finer
+    // one was chosen: a fine continuum takes up part of a missing line.
+    let detect = others.iter().find(|(cpr, _, _)| {
+        pr.terms.continuum_intervals > k_coarse
+            && cpr.terms.continuum_intervals == k_coarse
+            && cpr.terms.falloff_degree == pr.terms.falloff_degree
+    });
+    let detect = match detect {
+        Some((cpr, cf, _)) => Detect {
+            problem: cpr,
+            theta: &cf.theta,
+            eval: &cf.eval,
+        },
+        None => Detect {
+            problem: &pr,
+            theta: &theta,
+            eval: &eval,
+        },
+    };
+    assess(
+        &mut cal,
+        &pr,
+        &theta,
+        &eval,
+        &detect,
+        lamp,
+        opts.fwhm_guess_nm,
+    )?;
     cal.set_bands(opts.n_bands)?;
     Ok(cal)
+}
+
+/// The fit whose residual is searched for unexplained lines.
+struct Detect<'d, 'a> {
+    problem: &'d Problem<'a>,
+    theta: &'d [f64],
+    eval: &'d Eval,
+}
+
+/// Robust per-channel noise of a profile from its second differences:
+/// σ = median|y[i−1] − 2y[i] + y[i+1]| / (0.6745·√6) (white noise; a smooth signal's second
+/// differences are tiny at the pixel scale, so the lines do not inflate it).
+pub(crate) fn profile_noise(values: &[f64]) -> f64 {
+    let mut d: Vec<f64> = values
+        .windows(3)
+        .map(|w| (w[0] - 2.0 * w[1] + w[2]).abs())
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2] / (0.6745 * 6f64.sqrt())
+}
+
+/// The radial fall-off is divided out only when κ₀ exceeds this many standard errors: on
+/// images without vignetting the strip estimate scatters by up to ~4 of its formal σ (seeds 1–4
+/// of a 1 % noise Hg image), and a spurious fall-off biases the map more than none.
+const RADIAL_APPLY_SIGMA: f64 = 6.0;
+
+/// Wavelengths no lamp can put on a sensor behind a visible LVF.
+const PHYSICAL_NM: (f64, f64) = (200.0, 1200.0);
+/// Residual RMS over the noise above which the model does not explain the profile (warning).
+const RESIDUAL_OVER_NOISE_WARN: f64 = 3.0;
+/// Residual RMS relative to the profile's peak above which the calibration is refused, when it
+/// is also [`RESIDUAL_OVER_NOISE_REJECT`] times the noise.
+const RESIDUAL_RELATIVE_REJECT: f64 = 0.05;
+/// See [`RESIDUAL_RELATIVE_REJECT`].
+const RESIDUAL_OVER_NOISE_REJECT: f64 = 10.0;
+/// A listed line (with its blended neighbours) whose largest amplitude is below this fraction of
+/// the brightest line's is flagged absent.
+const ABSENT_RELATIVE: f64 = 0.02;
+/// Fitted FWHM over the guess outside [1/x, x] is flagged.
+const FWHM_RATIO_WARN: f64 = 2.0;
+/// An unexplained blob must exceed this fraction of the profile's peak (the coarse
+/// continuum's misfit of a 4 % continuum under vignetting leaves blob-like bumps of 2.7 %) …
+const UNEXPLAINED_RELATIVE: f64 = 0.04;
+/// … and this many standard errors of its amplitude.
+const UNEXPLAINED_SIGMA: f64 = 8.0;
+
+/// Checks the fit for physically impossible or unexplained results: refuses maps outside
+/// 200–1200 nm, fewer than two observed lines, or a profile the lamp list cannot explain
+/// (residual > 5 % of the peak and > 10× the noise); flags (in `warnings`) a FWHM far from the
+/// guess, residual structure above the noise, lines in range with no amplitude, and blobs in
+/// the residual that no listed line explains (`unexplained_lines`, matched filter with the
+/// fitted passband).
+fn assess(
+    cal: &mut LvfCalibration,
+    pr: &Problem,
+    theta: &[f64],
+    eval: &Eval,
+    detect: &Detect,
+    lamp: &Lamp,
+    fwhm_guess: f64,
+) -> Result<()> {
+    let n = pr.u.len();
+    let lams: Vec<f64> = pr.u.iter().map(|&u| pr.lambda(theta, u)).collect();
+    let lo = lams.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = lams.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let src = &cal.source;
+    if lo < PHYSICAL_NM.0 || hi > PHYSICAL_NM.1 {
+        return Err(Error::Numerical {
+            what: "LVF whole-profile fit".into(),
+            reason: format!(
+                "{src}: the best map puts the ROI at {lo:.1}–{hi:.1} nm, outside the physically possible {}–{} nm; lamp '{}' does not explain this image (wrong --lamp, not a lamp photo, wrong ROI or --direction)",
+                PHYSICAL_NM.0, PHYSICAL_NM.1, lamp.name
+            ),
+        });
+    }
+    let observed = cal
+        .lines
+        .iter()
+        .filter(|l| l.amplitude.iter().any(|a| *a > 0.0))
+        .count();
+    if observed < 2 {
+        return Err(Error::Numerical {
+            what: "LVF whole-profile fit".into(),
+            reason: format!(
+                "{src}: only {observed} of the lamp's lines is seen at {lo:.1}–{hi:.1} nm; at least two are needed to determine the map (wrong --lamp or ROI?)"
+            ),
+        });
+    }
+    let peak = (0..3)
+        .flat_map(|c| pr.y[c].iter().copied())
+        .fold(f64::MIN, f64::max)
+        .max(1e-300);
+    let noise: Vec<f64> = (0..3).map(|c| profile_noise(pr.y[c])).collect();
+    let noise_rms = (noise.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
+    let resid_rms = (eval.sse / (3 * n) as f64).sqrt();
+    let relative = resid_rms / peak;
+    let over_noise = resid_rms / noise_rms.max(1e-12 * peak);
+    cal.rms_residual_relative = Some(relative);
+    cal.diagnostics["noise_rms"] = serde_json::json!(noise_rms);
+    cal.diagnostics["residual_over_noise"] = serde_json::json!(over_noise);
+    if relative > RESIDUAL_RELATIVE_REJECT && over_noise > RESIDUAL_OVER_NOISE_REJECT {
+        return Err(Error::Numerical {
+            what: "LVF whole-profile fit".into(),
+            reason: format!(
+                "{src}: lamp '{}' does not explain the profile: the residual is {:.1} % of the peak and {over_noise:.0}× the noise (best map {lo:.1}–{hi:.1} nm, FWHM {:.1} nm); check --lamp, the ROI and that this is a lamp photo",
+                lamp.name,
+                100.0 * relative,
+                cal.fwhm_nm
+            ),
+        });
+    }
+    let mut warnings = Vec::new();
+    let ratio = cal.fwhm_nm / fwhm_guess;
+    if !(1.0 / FWHM_RATIO_WARN..=FWHM_RATIO_WARN).contains(&ratio) {
+        warnings.push(format!(
+            "fitted passband FWHM {:.1} nm is {ratio:.2}× the guess {fwhm_guess} nm: check --fwhm-guess and --lamp",
+            cal.fwhm_nm
+        ));
+    }
+    if over_noise > RESIDUAL_OVER_NOISE_WARN {
+        warnings.push(format!(
+            "residual structure {over_noise:.1}× the noise ({:.2} % of the peak): the model (lamp list, passband, background) does not fully explain the profile",
+            100.0 * relative
+        ));
+    }
+    let brightest = cal
+        .lines
+        .iter()
+        .map(|l| l.amplitude.iter().cloned().fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    // A line is absent when it and every listed line within half the FWHM (an unresolved
+    // group, whose split of amplitude is arbitrary) have no amplitude.
+    let group_amp = |nm: f64| {
+        cal.lines
+            .iter()
+            .filter(|o| (o.nm - nm).abs() < 0.5 * cal.fwhm_nm)
+            .map(|o| o.amplitude.iter().cloned().fold(0.0, f64::max))
+            .fold(0.0, f64::max)
+    };
+    for l in &cal.lines {
+        let inside = l.nm > lo + 0.5 * cal.fwhm_nm && l.nm < hi - 0.5 * cal.fwhm_nm;
+        let amp = group_amp(l.nm);
+        if inside && amp <= ABSENT_RELATIVE * brightest {
+            warnings.push(format!(
+                "lamp line {} nm lies inside the calibrated range but neither it nor a line blended with it has amplitude in any channel: it is absent from the image (or the lamp list is wrong)",
+                l.nm
+            ));
+        }
+    }
+    // Matched filter of the residual with the fitted passband (times the fall-off).
+    let (pr, theta, eval) = (detect.problem, detect.theta, detect.eval);
+    let lams: Vec<f64> = pr.u.iter().map(|&u| pr.lambda(theta, u)).collect();
+    let fwhm = pr.fwhm(theta);
+    let v = pr.falloff_coefficients(theta);
+    let mut score = vec![(0.0f64, 0.0f64); n]; // (relative amplitude, significance)
+    for (i, &li) in lams.iter().enumerate() {
+        let (mut stt, mut srt) = (0.0, [0.0; 3]);
+        for (j, &lj) in lams.iter().enumerate() {
+            let d = lj - li;
+            if d.abs() > 2.0 * fwhm {
+                continue;
+            }
+            let tj = falloff(v, pr.u[j])
+                * pr.vfix.get(j).copied().unwrap_or(1.0)
+                * pr.passband.eval(-d, fwhm);
+            stt += tj * tj;
+            for (c, s) in srt.iter_mut().enumerate() {
+                *s += eval.residual[c * n + j] * tj;
+            }
+        }
+        if stt <= 0.0 {
+            continue;
+        }
+        for (c, s) in srt.iter().enumerate() {
+            let a = s / stt;
+            let sig = a / (noise[c].max(1e-12 * peak) / stt.sqrt());
+            if a / peak > score[i].0 {
+                score[i] = (a / peak, sig);
+            }
+        }
+    }
+    let mut found: Vec<UnexplainedLine> = Vec::new();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| score[b].0.total_cmp(&score[a].0));
+    for i in order {
+        let (rel, sig) = score[i];
+        if rel < UNEXPLAINED_RELATIVE || sig < UNEXPLAINED_SIGMA {
+            break;
+        }
+        let li = lams[i];
+        let edge = li < lo + 0.5 * fwhm || li > hi - 0.5 * fwhm;
+        let near_listed = lamp.lines.iter().any(|l| (l.nm - li).abs() < 0.5 * fwhm);
+        let near_found = found.iter().any(|f| (f.nm - li).abs() < fwhm);
+        if edge || near_listed || near_found {
+            continue;
+        }
+        found.push(UnexplainedLine {
+            nm: li,
+            px: cal.curves.px.get(i).copied().unwrap_or(f64::NAN),
+            amplitude_relative: rel,
+            significance: sig,
+        });
+        if found.len() >= 8 {
+            break;
+        }
+    }
+    found.sort_by(|a, b| a.nm.total_cmp(&b.nm));
+    for f in &found {
+        warnings.push(format!(
+            "unexplained line near {:.1} nm (px {:.0}): a blob {:.1} % of the peak ({:.0}σ) that no line of lamp '{}' explains; add it to the lamp list or exclude it with --roi (the map near it may be biased)",
+            f.nm,
+            f.px,
+            100.0 * f.amplitude_relative,
+            f.significance,
+            lamp.name
+        ));
+    }
+    cal.unexplained_lines = found;
+    cal.warnings.extend(warnings);
+    Ok(())
 }
 
 /// s²(JᵀJ)⁻¹ with s² = SSE/dof ([`fit::stats`](crate::fit::stats), through the QR of J), or

@@ -72,6 +72,17 @@ impl Lamp {
         Self::from_pairs("hg", HG.iter().copied())
     }
 
+    /// Mercury with weak violet lines (404.7 and 407.8 nm at 1/20 of their usual power, as
+    /// behind a UV-blocking envelope or at low camera sensitivity): the calibration must not
+    /// lean on them.
+    pub fn mercury_weak_violet() -> Self {
+        Self::from_pairs(
+            "hg-weak",
+            HG.iter()
+                .map(|&(nm, p)| (nm, if nm < 420.0 { p / 20.0 } else { p })),
+        )
+    }
+
     /// Compact fluorescent lamp: mercury plus Tb³⁺/Eu³⁺ phosphor lines. Mercury lines are weaker
     /// relative to the phosphors than in a bare mercury lamp.
     pub fn cfl() -> Self {

@@ -22,6 +22,7 @@
 //! Units: positions in the input image's pixels (0 = first column/row, pixel centres at
 //! integers), wavelengths in nm. No colour-science counterpart.
 
+pub mod background;
 pub mod calibration;
 pub mod capture_synth;
 pub mod fit;
@@ -32,6 +33,7 @@ pub mod profile;
 pub mod synth;
 pub mod transmission;
 
+pub use background::{BackgroundChoice, BackgroundTerms};
 pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
 pub use fit::{calibrate_whole_profile, FitOptions, MapChoice, Passband};
 pub use geometry::{BandReadings, LvfGeometry};

@@ -169,8 +169,13 @@ pub fn calibrate_peaks(
         fwhm_nm: opts.fwhm_guess_nm,
         fwhm_sigma_nm: 0.0,
         rms_residual_nm: rms,
+        rms_residual_relative: None,
         sigma_nm_at_400: 0.0,
         sigma_nm_at_700: 0.0,
+        sigma_statistical_nm_at_400: 0.0,
+        sigma_statistical_nm_at_700: 0.0,
+        sigma_systematic_nm_at_400: 0.0,
+        sigma_systematic_nm_at_700: 0.0,
         lines: line_reports,
         bands: Vec::new(),
         map_selection: MapSelection {
@@ -180,11 +185,16 @@ pub fn calibrate_peaks(
             reason: "peak picking fits a straight line".into(),
         },
         wavelength_increases_with_px: increasing,
+        background: None,
+        unexplained_lines: Vec::new(),
+        warnings: Vec::new(),
         diagnostics: serde_json::json!({ "peaks": pos.len(), "smoothing_radius_px": r }),
         curves: ProfileCurves {
             px: profile.px.clone(),
             data: profile.values.clone(),
             model: Default::default(),
+            background: Default::default(),
+            falloff: Vec::new(),
         },
     };
     cal.set_bands(opts.n_bands)?;

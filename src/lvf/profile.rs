@@ -28,7 +28,27 @@ pub struct Profile {
     pub counts: Vec<usize>,
     /// Name of the image.
     pub source: String,
+    /// The ROI cut across the axis into strips ([`N_STRIPS`]), for the vignetting estimate of
+    /// [`crate::lvf::background::estimate_radial_falloff`].
+    pub strips: Vec<Strip>,
+    /// Size of the source image `[w, h]` (px): its centre is taken as the optical centre.
+    pub frame_size: [usize; 2],
 }
+
+/// A strip of the ROI across the axis: its mean per channel at the profile's positions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Strip {
+    /// Mean position across the axis (source px).
+    pub across_px: f64,
+    /// Mean per channel at each of the profile's positions (NaN where every pixel of the strip
+    /// is saturated there).
+    pub values: [Vec<f64>; 3],
+    /// Pixels averaged at each position.
+    pub counts: Vec<usize>,
+}
+
+/// Strips across the axis (fewer when the ROI is narrower than 2 px per strip).
+pub const N_STRIPS: usize = 8;
 
 /// Averages `frame` over the ROI `[x, y, w, h]` (source pixels) across `axis`.
 ///
@@ -72,11 +92,30 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
     let mut px = Vec::new();
     let mut values: [Vec<f64>; 3] = Default::default();
     let mut counts = Vec::new();
+    let n_strips = N_STRIPS.min(across.len() / 2).max(1);
+    let strip_of = |k: usize| k * n_strips / across.len();
+    let mut strips: Vec<Strip> = (0..n_strips)
+        .map(|s| {
+            let members: Vec<f64> = across
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| strip_of(*k) == s)
+                .map(|(_, &b)| frame.source_coordinate(b))
+                .collect();
+            Strip {
+                across_px: members.iter().sum::<f64>() / members.len().max(1) as f64,
+                values: Default::default(),
+                counts: Vec::new(),
+            }
+        })
+        .collect();
     let mut n_all_saturated = 0;
     for &a in along {
         let mut sum = [0.0; 3];
         let mut n = 0;
-        for &b in across {
+        let mut ssum = vec![[0.0; 3]; n_strips];
+        let mut sn = vec![0usize; n_strips];
+        for (k, &b) in across.iter().enumerate() {
             let (fx, fy) = match axis {
                 Axis::X => (a, b),
                 Axis::Y => (b, a),
@@ -85,10 +124,13 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
                 continue;
             }
             let v = frame.rgb(fx, fy);
+            let s = strip_of(k);
             for c in 0..3 {
                 sum[c] += f64::from(v[c]);
+                ssum[s][c] += f64::from(v[c]);
             }
             n += 1;
+            sn[s] += 1;
         }
         if n == 0 {
             n_all_saturated += 1;
@@ -99,6 +141,16 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
             values[c].push(sum[c] / n as f64);
         }
         counts.push(n);
+        for (s, st) in strips.iter_mut().enumerate() {
+            for (c, col) in st.values.iter_mut().enumerate() {
+                col.push(if sn[s] > 0 {
+                    ssum[s][c] / sn[s] as f64
+                } else {
+                    f64::NAN
+                });
+            }
+            st.counts.push(sn[s]);
+        }
     }
     if 2 * n_all_saturated > along.len() || px.len() < 8 {
         return Err(Error::invalid(
@@ -117,5 +169,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
         values,
         counts,
         source: frame.name.clone(),
+        strips,
+        frame_size: [sw, sh],
     })
 }

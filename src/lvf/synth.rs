@@ -3,11 +3,24 @@
 //! planning aid.
 //!
 //! Along the axis, position p (pixels, centres at integers) passes λ(p) = nm_at_start +
-//! nm_per_px·p with a Gaussian passband of the given FWHM; channel c records
-//! V(x, y)·Σ_l P_l·S_c(λ_l)·g(λ_l − λ(p)), scaled so that the brightest pixel is 0.8 of full
-//! scale. Vignetting V = 1 − v·r² with r the distance from the image centre over the half
-//! diagonal. Noise follows [`crate::capture::synth::noisy_value`] with peak 0.8: at the brightest
-//! pixel its standard deviation is `noise`·0.8. Deterministic for a seed.
+//! nm_per_px·p with a Gaussian passband g of the given FWHM; channel c records
+//!
+//! ```text
+//! V(x, y)·[ Σ_l P_l·S_c(λ_l)·⟨g(λ_l − λ(p + t))⟩_t  +  k·Σ_λ C(λ)·S_c(λ)·g(λ − λ(p))·1 nm ]
+//! ```
+//!
+//! scaled so that the brightest pixel is 0.8 of full scale. Lines are exact: each line is a
+//! delta at its wavelength (no wavelength grid) and ⟨·⟩_t averages the passband over the pixel's
+//! own span t ∈ [−½, ½] (8-point Gauss–Legendre, exact to rounding for a pixel much narrower than
+//! the passband), so a line narrower than any grid step does not move. The optional continuum C
+//! ([`ContinuumShape`]: flat, blackbody, or the broad bands of a CFL's phosphors) is summed on
+//! the 1 nm grid 360–830 nm; k makes its largest value `fraction` of the brightest line blob
+//! (both before vignetting). Vignetting V ([`VignettingShape`]): quadratic 1 − v·r² (r the
+//! distance from the image centre over the half diagonal), cos⁴ law scaled to 1 − v at the
+//! corners, a linear tilt along the axis from 1 to 1 − v, or quadratic about an off-centre point
+//! (¾ of the width, ⅓ of the height) reaching 1 − v at the farthest corner. Noise follows
+//! [`crate::capture::synth::noisy_value`] with peak 0.8: at the brightest pixel its standard
+//! deviation is `noise`·0.8. Deterministic for a seed.
 
 use crate::capture::rng::SplitMix64;
 use crate::capture::synth::noisy_value;
@@ -74,9 +87,185 @@ pub struct LvfSynthSpec {
     pub noise: f64,
     /// Vignetting strength v.
     pub vignetting: f64,
+    /// Shape of the vignetting.
+    pub vignetting_shape: VignettingShape,
+    /// A broadband continuum under the lines.
+    pub continuum: Option<Continuum>,
     /// Random seed.
     pub seed: u64,
 }
+
+/// Shape of the vignetting of a synthetic capture (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VignettingShape {
+    /// 1 − v·r² about the image centre.
+    Quadratic,
+    /// cos⁴ law, 1 − v at the corners.
+    Cos4,
+    /// Linear tilt along the filter axis, 1 at the start to 1 − v at the end.
+    Linear,
+    /// 1 − v·r'²/r'²_max about (¾ width, ⅓ height).
+    Offcentre,
+}
+
+impl VignettingShape {
+    /// Parses `AMOUNT` (quadratic) or `SHAPE:AMOUNT`, SHAPE one of quadratic, cos4, linear,
+    /// offcentre; AMOUNT in [0, 1).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] naming `--vignetting`.
+    pub fn parse(s: &str) -> Result<(Self, f64)> {
+        let (shape, amount) = match s.split_once(':') {
+            Some((a, b)) => (a.trim().to_ascii_lowercase(), b.trim()),
+            None => ("quadratic".to_string(), s.trim()),
+        };
+        let shape = match shape.as_str() {
+            "quadratic" => VignettingShape::Quadratic,
+            "cos4" => VignettingShape::Cos4,
+            "linear" => VignettingShape::Linear,
+            "offcentre" | "offcenter" => VignettingShape::Offcentre,
+            _ => {
+                return Err(Error::invalid(
+                    "--vignetting",
+                    format!("'{s}': expected AMOUNT or SHAPE:AMOUNT with SHAPE quadratic, cos4, linear or offcentre"),
+                ))
+            }
+        };
+        match amount.parse::<f64>() {
+            Ok(v) if (0.0..1.0).contains(&v) => Ok((shape, v)),
+            _ => Err(Error::invalid(
+                "--vignetting",
+                format!("'{s}': the amount must be a number in [0, 1)"),
+            )),
+        }
+    }
+
+    /// V at pixel (x, y) of a `width` × `height` image whose filter axis is `axis`.
+    pub fn at(
+        self,
+        amount: f64,
+        axis: Axis,
+        x: usize,
+        y: usize,
+        width: usize,
+        height: usize,
+    ) -> f64 {
+        let (w, h) = (width as f64, height as f64);
+        let (cx, cy) = ((w - 1.0) / 2.0, (h - 1.0) / 2.0);
+        let (dx, dy) = (x as f64 - cx, y as f64 - cy);
+        let r2 = (dx * dx + dy * dy) / (cx * cx + cy * cy).max(1e-12);
+        match self {
+            VignettingShape::Quadratic => 1.0 - amount * r2,
+            VignettingShape::Cos4 => {
+                // 1/(1 + r²/f²)² with 1 − amount at r = 1
+                let inv_f2 = (1.0 - amount).powf(-0.5) - 1.0;
+                1.0 / (1.0 + r2 * inv_f2).powi(2)
+            }
+            VignettingShape::Linear => {
+                let (p, len) = match axis {
+                    Axis::X => (x as f64, w),
+                    Axis::Y => (y as f64, h),
+                };
+                1.0 - amount * p / (len - 1.0).max(1.0)
+            }
+            VignettingShape::Offcentre => {
+                let (ox, oy) = (0.75 * (w - 1.0), (h - 1.0) / 3.0);
+                let far = [
+                    (0.0, 0.0),
+                    (w - 1.0, 0.0),
+                    (0.0, h - 1.0),
+                    (w - 1.0, h - 1.0),
+                ]
+                .iter()
+                .map(|(a, b)| (a - ox) * (a - ox) + (b - oy) * (b - oy))
+                .fold(0.0f64, f64::max)
+                .max(1e-12);
+                let (ex, ey) = (x as f64 - ox, y as f64 - oy);
+                1.0 - amount * (ex * ex + ey * ey) / far
+            }
+        }
+    }
+}
+
+/// The spectrum of a continuum under the lamp lines.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContinuumShape {
+    /// Equal power at every wavelength.
+    Flat,
+    /// Planck's law at this temperature (K).
+    Blackbody(f64),
+    /// The broad emission bands under a CFL's lines: a blue band (BaMgAl₁₀O₁₇:Eu²⁺, peak
+    /// 450 nm, FWHM 50 nm) and weak broad green and red wings (520 nm / 80 nm at 0.3,
+    /// 620 nm / 120 nm at 0.2) — a typical shape, not a measurement.
+    Cfl,
+}
+
+impl ContinuumShape {
+    /// Parses `flat`, `cfl` or `blackbody:K`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] naming `--continuum-spectrum`.
+    pub fn parse(s: &str) -> Result<Self> {
+        let t = s.trim().to_ascii_lowercase();
+        if t == "flat" {
+            return Ok(ContinuumShape::Flat);
+        }
+        if t == "cfl" {
+            return Ok(ContinuumShape::Cfl);
+        }
+        if let Some(k) = t.strip_prefix("blackbody:") {
+            if let Ok(k) = k.parse::<f64>() {
+                if (500.0..=50_000.0).contains(&k) {
+                    return Ok(ContinuumShape::Blackbody(k));
+                }
+            }
+        }
+        Err(Error::invalid(
+            "--continuum-spectrum",
+            format!("'{s}': expected flat, cfl or blackbody:K with 500 ≤ K ≤ 50000"),
+        ))
+    }
+
+    /// Relative spectral power at `nm` (any scale; the renderer normalises).
+    pub fn value(self, nm: f64) -> f64 {
+        let band = |c: f64, fwhm: f64| {
+            let s = fwhm / (8.0 * std::f64::consts::LN_2).sqrt();
+            (-0.5 * ((nm - c) / s).powi(2)).exp()
+        };
+        match self {
+            ContinuumShape::Flat => 1.0,
+            ContinuumShape::Blackbody(t) => {
+                crate::colorimetry::blackbody::planck_law(nm * 1e-9, t).unwrap_or(0.0)
+            }
+            ContinuumShape::Cfl => {
+                band(450.0, 50.0) + 0.3 * band(520.0, 80.0) + 0.2 * band(620.0, 120.0)
+            }
+        }
+    }
+}
+
+/// A continuum under the lines and its size.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Continuum {
+    /// Its spectrum.
+    pub shape: ContinuumShape,
+    /// Its largest value through passband and camera over the brightest line blob's.
+    pub fraction: f64,
+}
+
+/// 8-point Gauss–Legendre nodes and weights on [−½, ½] (weights sum to 1).
+const GL8: [(f64, f64); 8] = [
+    (-0.480_144_830_023_052_4, 0.050_614_268_145_188_13),
+    (-0.398_333_238_706_813_3, 0.111_190_517_226_687_2),
+    (-0.262_766_204_958_164_2, 0.156_853_322_938_943_6),
+    (-0.091_717_321_247_824_89, 0.181_341_891_689_181_1),
+    (0.091_717_321_247_824_89, 0.181_341_891_689_181_1),
+    (0.262_766_204_958_164_2, 0.156_853_322_938_943_6),
+    (0.398_333_238_706_813_3, 0.111_190_517_226_687_2),
+    (0.480_144_830_023_052_4, 0.050_614_268_145_188_13),
+];
 
 /// The truth written beside a synthetic capture.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -103,6 +292,10 @@ pub struct LvfTruth {
     pub noise: f64,
     /// Vignetting.
     pub vignetting: f64,
+    /// Vignetting shape.
+    pub vignetting_shape: VignettingShape,
+    /// The continuum under the lines, if any.
+    pub continuum: Option<Continuum>,
     /// Seed.
     pub seed: u64,
 }
@@ -151,31 +344,73 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         Axis::X => spec.width,
         Axis::Y => spec.height,
     };
+    if let Some(c) = &spec.continuum {
+        if !(c.fraction >= 0.0 && c.fraction <= 100.0) {
+            return Err(Error::invalid(
+                "--continuum",
+                format!(
+                    "{}: expected a fraction of the brightest blob in [0, 100]",
+                    c.fraction
+                ),
+            ));
+        }
+    }
     let g = Passband::Gaussian;
-    let profile: Vec<[f64; 3]> = (0..along)
+    let lam_at = |p: f64| spec.nm_at_start + spec.nm_per_px * p;
+    let mut profile: Vec<[f64; 3]> = (0..along)
         .map(|p| {
-            let lam = spec.nm_at_start + spec.nm_per_px * p as f64;
             std::array::from_fn(|c| {
                 spec.lamp
                     .lines
                     .iter()
                     .map(|l| {
-                        l.relative_power
-                            * sensitivity(&spec.camera, c, l.nm)
-                            * g.eval(l.nm - lam, spec.fwhm_nm)
+                        let mean_g: f64 = GL8
+                            .iter()
+                            .map(|(t, w)| w * g.eval(l.nm - lam_at(p as f64 + t), spec.fwhm_nm))
+                            .sum();
+                        l.relative_power * sensitivity(&spec.camera, c, l.nm) * mean_g
                     })
                     .sum()
             })
         })
         .collect();
-    let (cx, cy) = (
-        (spec.width as f64 - 1.0) / 2.0,
-        (spec.height as f64 - 1.0) / 2.0,
-    );
-    let r2max = cx * cx + cy * cy;
+    if let Some(cont) = spec.continuum.filter(|c| c.fraction > 0.0) {
+        let grid: Vec<f64> = (360..=830).map(f64::from).collect();
+        let w: Vec<[f64; 3]> = grid
+            .iter()
+            .map(|&l| {
+                std::array::from_fn(|c| cont.shape.value(l) * sensitivity(&spec.camera, c, l))
+            })
+            .collect();
+        let cp: Vec<[f64; 3]> = (0..along)
+            .map(|p| {
+                let lc = lam_at(p as f64);
+                let mut s = [0.0; 3];
+                for (l, wl) in grid.iter().zip(&w) {
+                    let gi = g.eval(l - lc, spec.fwhm_nm);
+                    if gi > 0.0 {
+                        for c in 0..3 {
+                            s[c] += wl[c] * gi;
+                        }
+                    }
+                }
+                s
+            })
+            .collect();
+        let lmax = profile.iter().flatten().cloned().fold(0.0, f64::max);
+        let cmax = cp.iter().flatten().cloned().fold(0.0, f64::max);
+        if cmax > 0.0 && lmax > 0.0 {
+            let k = cont.fraction * lmax / cmax;
+            for (pp, cc) in profile.iter_mut().zip(&cp) {
+                for c in 0..3 {
+                    pp[c] += k * cc[c];
+                }
+            }
+        }
+    }
     let vig = |x: usize, y: usize| {
-        let (dx, dy) = (x as f64 - cx, y as f64 - cy);
-        1.0 - spec.vignetting * (dx * dx + dy * dy) / r2max.max(1e-12)
+        spec.vignetting_shape
+            .at(spec.vignetting, spec.axis, x, y, spec.width, spec.height)
     };
     let mut max = 0.0f64;
     for y in 0..spec.height {
@@ -230,6 +465,8 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         camera: spec.camera.name().to_string(),
         noise: spec.noise,
         vignetting: spec.vignetting,
+        vignetting_shape: spec.vignetting_shape,
+        continuum: spec.continuum,
         seed: spec.seed,
     };
     Ok((frame, truth))

@@ -1,5 +1,7 @@
 //! LVF calibration chart: the profile per camera channel with the fitted model, the lamp lines at
-//! their fitted positions, and the residuals below.
+//! their fitted positions, what the fit put under the lines (offset + continuum, thin light
+//! curves per channel) and the fall-off V it divided out (grey, scaled to the plot's top), and
+//! the residuals below; the legend line names the background model and any warnings.
 
 use std::path::Path;
 
@@ -17,6 +19,8 @@ const SIZE_PX: (u32, u32) = (1400, 900);
 const TITLE_H: i32 = 60;
 const CHANNEL_RGB: [[u8; 3]; 3] = [[200, 40, 40], [30, 150, 60], [40, 80, 210]];
 const MODEL_RGB: [[u8; 3]; 3] = [[110, 10, 10], [10, 80, 25], [10, 30, 120]];
+const BACKGROUND_RGB: [[u8; 3]; 3] = [[240, 150, 150], [140, 210, 150], [150, 170, 240]];
+const FALLOFF_RGB: [u8; 3] = [120, 120, 120];
 
 /// Writes the calibration chart (1400 × 900 px PNG) to `path`.
 ///
@@ -86,8 +90,30 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
         let (w, _) = root.dim_in_pixel();
         let style = TextSpec::new(22.0, INK, HPos::Center, VPos::Center);
         let t = fit_text(&root, &title, style.size_px, w - 40)?;
-        draw_text(&root, &t, (w as i32 / 2, TITLE_H / 2), style)?;
-        let (_, body) = root.split_vertically(TITLE_H);
+        draw_text(&root, &t, (w as i32 / 2, TITLE_H / 2 - 10), style)?;
+        let legend = match &cal.background {
+            Some(b) => format!(
+                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak ({}) · {} warning(s){}",
+                b.model,
+                100.0 * b.continuum_peak_relative,
+                if b.radial_falloff_applied {
+                    format!(
+                        "radial, V at the ends {:.3} / {:.3}",
+                        c.falloff.first().copied().unwrap_or(1.0),
+                        c.falloff.last().copied().unwrap_or(1.0)
+                    )
+                } else {
+                    "none applied".to_string()
+                },
+                cal.warnings.len(),
+                cal.warnings.first().map(|w| format!(": {w}")).unwrap_or_default()
+            ),
+            None => "peak picking: no background model".to_string(),
+        };
+        let lstyle = TextSpec::new(15.0, INK, HPos::Center, VPos::Center);
+        let lt = fit_text(&root, &legend, lstyle.size_px, w - 40)?;
+        draw_text(&root, &lt, (w as i32 / 2, TITLE_H - 8), lstyle)?;
+        let (_, body) = root.split_vertically(TITLE_H + 8);
         let (top, bottom) = body.split_vertically(560);
         let mut chart = spectral_axes(
             &top,
@@ -109,6 +135,20 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                     ))
                     .map_err(draw_err)?;
             }
+        }
+        for (bg, rgb) in c.background.iter().zip(BACKGROUND_RGB) {
+            if bg.len() == c.px.len() {
+                let pts: Vec<(f64, f64)> = c.px.iter().copied().zip(bg.iter().copied()).collect();
+                draw_curve(&mut chart, &pts, rgb, 2)?;
+            }
+        }
+        if c.falloff.len() == c.px.len() {
+            let pts: Vec<(f64, f64)> =
+                c.px.iter()
+                    .copied()
+                    .zip(c.falloff.iter().map(|v| v * ymax))
+                    .collect();
+            draw_curve(&mut chart, &pts, FALLOFF_RGB, 2)?;
         }
         for k in 0..3 {
             let pts: Vec<(f64, f64)> =

@@ -9,7 +9,8 @@ use lumifit::io::sources::{file_of, resolve_lamp, resolve_passband};
 use lumifit::io::Outputs;
 use lumifit::lvf::fit::Direction;
 use lumifit::lvf::{
-    calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, FitOptions, MapChoice,
+    calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, BackgroundChoice, FitOptions,
+    MapChoice,
 };
 
 use super::emit;
@@ -68,9 +69,10 @@ pub enum DirectionArg {
 pub struct CalibrateArgs {
     /// Lamp photo (RAW, PNG, TIFF, EXR).
     pub image: PathBuf,
-    /// ROI x,y,w,h in the image's own pixels (for RAW: the full-resolution image).
+    /// ROI x,y,w,h in the image's own pixels (for RAW: the full-resolution image); default the
+    /// whole image.
     #[arg(long)]
-    pub roi: String,
+    pub roi: Option<String>,
     /// Filter axis: x (along columns) or y (along rows).
     #[arg(long, value_enum)]
     pub axis: AxisArg,
@@ -101,6 +103,35 @@ pub struct CalibrateArgs {
     /// Which way wavelength runs along the axis.
     #[arg(long, value_enum, default_value = "auto")]
     pub direction: DirectionArg,
+    /// Terms under and over the lines: auto (chosen by BIC), linear (offset b + s·u only),
+    /// continuum, falloff, continuum+falloff (a quadratic fall-off).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub background: BackgroundArg,
+    /// Do not estimate and divide out a radial fall-off from the ROI's strips across the axis.
+    #[arg(long)]
+    pub no_radial_falloff: bool,
+    /// Knot spacings of the continuum candidates in units of the FWHM, coarsest first
+    /// (0.8–10 each; the first is also the one `--background continuum` uses).
+    #[arg(long, value_delimiter = ',', default_value = "2.5,1.5")]
+    pub continuum_knots: Vec<f64>,
+}
+
+/// Background terms of the whole-profile fit.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum BackgroundArg {
+    /// Chosen by BIC: offset only, or offset + continuum (the radial fall-off estimated across
+    /// the axis is applied to both).
+    Auto,
+    /// Offset b + s·u only.
+    Linear,
+    /// Offset + non-negative B-spline continuum.
+    Continuum,
+    /// Offset + a fitted quadratic fall-off along the axis (poorly determined: along the axis
+    /// a fall-off is nearly a shift of the map).
+    Falloff,
+    /// Offset + continuum + fitted quadratic fall-off (see falloff).
+    #[value(name = "continuum+falloff")]
+    ContinuumFalloff,
 }
 
 /// Runs one of these subcommands.
@@ -115,9 +146,26 @@ pub fn run(cmd: LvfCommand) -> Result<()> {
 /// bands only repeat the same light).
 const MAX_BANDS: usize = 300;
 
+fn fixed(continuum: bool, falloff_degree: usize) -> BackgroundChoice {
+    BackgroundChoice::Fixed {
+        continuum,
+        falloff_degree,
+    }
+}
+
 fn calibrate(a: &CalibrateArgs) -> Result<()> {
     if !(a.fwhm_guess.is_finite() && a.fwhm_guess > 1.0 && a.fwhm_guess < 200.0) {
         anyhow::bail!("--fwhm-guess: {} nm; expected 1–200", a.fwhm_guess);
+    }
+    if a.continuum_knots.is_empty()
+        || a.continuum_knots
+            .iter()
+            .any(|k| !(k.is_finite() && (0.8..=10.0).contains(k)))
+    {
+        anyhow::bail!(
+            "--continuum-knots: {:?}; expected one or more spacings of 0.8–10 FWHM, e.g. 2.5,1.5",
+            a.continuum_knots
+        );
     }
     lumifit::limits::check_count(
         "--bands",
@@ -135,8 +183,14 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     }
     let lamp = resolve_lamp(&a.lamp)?;
     let passband = resolve_passband(&a.passband)?;
-    let roi = super::parse_rect(&a.roi)?;
     let (frame, info) = read_frame(&a.image)?;
+    let roi = match &a.roi {
+        Some(r) => super::parse_rect(r)?,
+        None => {
+            let (w, h) = frame.source_size();
+            [0, 0, w, h]
+        }
+    };
     for w in &info.warnings {
         eprintln!("warning: {w}");
     }
@@ -159,6 +213,15 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
             DirectionArg::Decreasing => Direction::Decreasing,
         },
         n_bands: a.bands,
+        background: match a.background {
+            BackgroundArg::Auto => BackgroundChoice::Auto,
+            BackgroundArg::Linear => fixed(false, 0),
+            BackgroundArg::Continuum => fixed(true, 0),
+            BackgroundArg::Falloff => fixed(false, 2),
+            BackgroundArg::ContinuumFalloff => fixed(true, 2),
+        },
+        radial_falloff: !a.no_radial_falloff,
+        continuum_knots_fwhm: a.continuum_knots.clone(),
     };
     let t = std::time::Instant::now();
     let cal = match a.method {
@@ -167,6 +230,9 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     }
     .with_context(|| format!("calibrating {}", a.image.display()))?;
     let seconds = t.elapsed().as_secs_f64();
+    for w in &cal.warnings {
+        eprintln!("warning: {}: {w}", a.image.display());
+    }
     let mut json = serde_json::to_value(&cal)?;
     json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
     out.stage(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
@@ -182,6 +248,9 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         "rms_residual_nm": cal.rms_residual_nm,
         "sigma_nm_at_400": cal.sigma_nm_at_400,
         "sigma_nm_at_700": cal.sigma_nm_at_700,
+        "rms_residual_relative": cal.rms_residual_relative,
+        "background": cal.background.as_ref().map(|b| b.model.clone()),
+        "warnings": cal.warnings,
         "fit_seconds": seconds,
     }))?)
 }

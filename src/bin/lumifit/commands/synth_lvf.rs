@@ -11,6 +11,7 @@ use lumifit::io::lvf_model::read_lvf_model;
 use lumifit::io::sources::{file_of, resolve_lamp};
 use lumifit::io::Outputs;
 use lumifit::lvf::capture_synth::{render_lvf_capture, CaptureLight, Exposure, LvfCaptureSpec};
+use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
 use lumifit::lvf::{render_lvf, Axis, LvfSynthSpec};
 
 use super::emit;
@@ -52,9 +53,10 @@ pub struct LvfCaptureArgs {
     /// Relative noise at 0.8 of full scale (shot + read).
     #[arg(long, default_value_t = 0.01)]
     pub noise: f64,
-    /// Vignetting strength v in 1 − v·r².
-    #[arg(long, default_value_t = 0.0)]
-    pub vignetting: f64,
+    /// Vignetting: AMOUNT (quadratic 1 − v·r²) or SHAPE:AMOUNT with SHAPE quadratic, cos4,
+    /// linear (tilt along the axis) or offcentre.
+    #[arg(long, default_value = "0")]
+    pub vignetting: String,
     /// Exposure: auto (an unfiltered white peaks at 0.8) or a factor.
     #[arg(long, default_value = "auto")]
     pub exposure: String,
@@ -96,18 +98,28 @@ pub struct LvfHgArgs {
     /// Passband FWHM (nm).
     #[arg(long, default_value_t = 25.0)]
     pub fwhm: f64,
-    /// Lamp: hg, cfl or CSV wavelength_nm[,relative_power].
+    /// Lamp: hg, hg-weak (weak 405/408 nm), cfl or CSV wavelength_nm[,relative_power].
     #[arg(long, default_value = "hg")]
     pub lamp: String,
-    /// Camera sensitivities CSV wavelength_nm,r,g,b (default: calib/camera_default.csv, Nikon 5100 NPL).
+    /// Camera sensitivities CSV wavelength_nm,r,g,b, or DATABASE.csv:NAME (long format
+    /// camera,wavelength_nm,r,g,b, e.g. the Jiang 2013 database; default: calib/camera_default.csv,
+    /// Nikon 5100 NPL).
     #[arg(long)]
     pub camera: Option<PathBuf>,
     /// Relative noise at the brightest pixel (shot + read).
     #[arg(long, default_value_t = 0.01)]
     pub noise: f64,
-    /// Vignetting strength v in 1 − v·r².
-    #[arg(long, default_value_t = 0.2)]
-    pub vignetting: f64,
+    /// Vignetting: AMOUNT (quadratic 1 − v·r²) or SHAPE:AMOUNT with SHAPE quadratic, cos4,
+    /// linear (tilt along the axis) or offcentre.
+    #[arg(long, default_value = "0.2")]
+    pub vignetting: String,
+    /// A broadband continuum under the lines: its peak through passband and camera as a fraction
+    /// of the brightest line blob (0: none).
+    #[arg(long, default_value_t = 0.0)]
+    pub continuum: f64,
+    /// Spectrum of the continuum: flat, cfl (broad phosphor bands) or blackbody:K.
+    #[arg(long, default_value = "flat")]
+    pub continuum_spectrum: String,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -150,6 +162,18 @@ fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
     Ok((w, h))
 }
 
+/// The file of `--camera FILE.csv[:NAME]`.
+fn camera_file(p: &std::path::Path) -> PathBuf {
+    if p.is_file() {
+        return p.to_path_buf();
+    }
+    p.to_str()
+        .and_then(|s| s.rsplit_once(':'))
+        .map(|(f, _)| PathBuf::from(f))
+        .filter(|f| f.is_file())
+        .unwrap_or_else(|| p.to_path_buf())
+}
+
 /// The file of `--filter FILE.csv[:CODE]`.
 fn filter_file(arg: &str) -> Option<std::path::PathBuf> {
     file_of(arg).or_else(|| arg.rsplit_once(':').and_then(|(f, _)| file_of(f)))
@@ -167,7 +191,8 @@ fn parse_exposure(s: &str) -> Result<Exposure> {
 
 fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
     let mut out = Outputs::new();
-    out.inputs(a.spectrum.iter().chain(&a.reflectance).chain(&a.camera));
+    out.inputs(a.spectrum.iter().chain(&a.reflectance).cloned());
+    out.inputs(a.camera.iter().map(|c| camera_file(c)));
     out.input(&a.lvf);
     out.inputs(a.illuminant.as_deref().and_then(file_of));
     out.inputs(a.filter.as_deref().and_then(filter_file));
@@ -176,6 +201,7 @@ fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
         out.declare("--truth", t)?;
     }
     let exposure = parse_exposure(&a.exposure)?;
+    let (vignetting_shape, vignetting) = VignettingShape::parse(&a.vignetting)?;
     let model = read_lvf_model(&a.lvf).with_context(|| format!("--lvf {}", a.lvf.display()))?;
     let (width, height) = match (&a.size, model.size) {
         (Some(s), _) => parse_size("--size", s)?,
@@ -216,7 +242,8 @@ fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
         filter_name,
         camera: read_camera(a.camera.as_deref())?.curves,
         noise: a.noise,
-        vignetting: a.vignetting,
+        vignetting,
+        vignetting_shape,
         seed: a.seed,
         exposure,
     };
@@ -232,11 +259,22 @@ fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
 
 fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
     let mut out = Outputs::new();
-    out.inputs(&a.camera);
+    out.inputs(a.camera.iter().map(|c| camera_file(c)));
     out.inputs(file_of(&a.lamp));
     out.declare("--out", &a.out)?;
     out.declare("--truth", &a.truth)?;
     let (w, h) = parse_size("--size", &a.size)?;
+    let (vignetting_shape, vignetting) = VignettingShape::parse(&a.vignetting)?;
+    let continuum = if a.continuum > 0.0 {
+        Some(Continuum {
+            shape: ContinuumShape::parse(&a.continuum_spectrum)?,
+            fraction: a.continuum,
+        })
+    } else if a.continuum == 0.0 {
+        None
+    } else {
+        anyhow::bail!("--continuum: {}; expected a fraction ≥ 0", a.continuum)
+    };
     let spec = LvfSynthSpec {
         width: w,
         height: h,
@@ -250,7 +288,9 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         lamp: resolve_lamp(&a.lamp)?,
         camera: read_camera(a.camera.as_deref())?.curves,
         noise: a.noise,
-        vignetting: a.vignetting,
+        vignetting,
+        vignetting_shape,
+        continuum,
         seed: a.seed,
     };
     let (frame, truth) = render_lvf(&spec)?;

@@ -1,0 +1,319 @@
+//! What lies under and over the lamp lines of an LVF profile: a smooth continuum and a
+//! multiplicative fall-off along the axis.
+//!
+//! The full profile model of channel c at normalised position u ∈ [−1, 1] is
+//!
+//! ```text
+//! y_c(u) = b_c + s_c·u + V(u)·[ Σ_l A_{l,c}·g(λ_l − λ(u)) + Σ_k β_{k,c}·B_k(u) ],
+//! V(u)   = 1 + Σ_{j=1..J} v_j·u^j                                (value 1 at the centre)
+//! ```
+//!
+//! - `b + s·u` is the additive offset (black-level residue, stray light that does not pass the
+//!   filter), free in sign;
+//! - the continuum Σ β_k B_k(u) is a uniform cubic B-spline in u with β ≥ 0, so it is
+//!   non-negative everywhere (a B-spline with non-negative coefficients is). A broadband
+//!   spectrum S seen through the passband and camera is C_c(u) = ∫ S(λ)·Q_c(λ)·g(λ − λ(u)) dλ,
+//!   a bump per channel that follows the camera's sensitivity; the knot spacing is tied to
+//!   the passband (at least 1.5 × FWHM in wavelength, [`CONTINUUM_KNOT_FWHM`]) so the continuum
+//!   cannot form a blob as narrow as a lamp line; a line missing from the lamp list is searched
+//!   for in the residual of the coarsest continuum (2.5 × FWHM), where it stays;
+//! - V(u) is lens fall-off / vignetting along the axis (quadratic, cos⁴, tilted or off-centre
+//!   fall-off averaged across the ROI are all smooth in u); it multiplies light that passed
+//!   the filter (lines and continuum), not the additive offset.
+//!
+//! Which terms are used is chosen per image by the Bayesian information criterion
+//! BIC = N·ln(SSE/N) + k·ln N (k = nonlinear plus active linear parameters), so a clean lamp
+//! does not pay for a continuum it does not have.
+
+/// Knot spacings of the continuum spline tried, in units of the passband FWHM (wavelength).
+/// A cubic B-spline element with knot spacing h has a FWHM of about 1.36·h, so at 1.5 × FWHM
+/// the narrowest continuum feature is still twice as wide as a line blob; at 2.5 × FWHM 3.4
+/// times.
+pub const CONTINUUM_KNOT_FWHM: [f64; 2] = [2.5, 1.5];
+
+/// Fewest and most intervals of the continuum spline.
+pub const CONTINUUM_INTERVALS: (usize, usize) = (3, 12);
+
+/// The terms of the profile model besides the lines and the linear offset.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct BackgroundTerms {
+    /// Intervals of the cubic B-spline continuum on u ∈ [−1, 1] (0: no continuum).
+    pub continuum_intervals: usize,
+    /// Degree J of the fall-off polynomial V(u) = 1 + Σ v_j u^j (0: no fall-off).
+    pub falloff_degree: usize,
+}
+
+impl BackgroundTerms {
+    /// Only the linear offset `b + s·u` (the model before continuum and fall-off existed).
+    pub const LINEAR: BackgroundTerms = BackgroundTerms {
+        continuum_intervals: 0,
+        falloff_degree: 0,
+    };
+
+    /// Number of continuum basis functions per channel.
+    pub fn n_continuum(&self) -> usize {
+        if self.continuum_intervals == 0 {
+            0
+        } else {
+            self.continuum_intervals + 3
+        }
+    }
+
+    /// Short name for reports: `linear`, `falloff2`, `continuum6`, `continuum6+falloff2`.
+    pub fn name(&self) -> String {
+        match (self.continuum_intervals, self.falloff_degree) {
+            (0, 0) => "linear".into(),
+            (0, f) => format!("falloff{f}"),
+            (c, 0) => format!("continuum{c}"),
+            (c, f) => format!("continuum{c}+falloff{f}"),
+        }
+    }
+}
+
+/// How the background terms are chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackgroundChoice {
+    /// Smallest BIC among no continuum and continua of the knot spacings
+    /// [`CONTINUUM_KNOT_FWHM`] (no fitted fall-off: see [`estimate_radial_falloff`]).
+    Auto,
+    /// These terms: a continuum (its knots from the passband, see [`continuum_intervals_for`])
+    /// or not, and a fall-off polynomial of this degree (0: none).
+    Fixed {
+        /// Whether to fit a continuum.
+        continuum: bool,
+        /// Degree of the fall-off polynomial.
+        falloff_degree: usize,
+    },
+}
+
+/// Uniform cubic B-spline basis on [−1, 1] with `intervals` intervals: `intervals + 3`
+/// functions, each ≥ 0, summing to 1 on [−1, 1]. Writes the values at `u` into `out`.
+pub fn cubic_bspline_row(u: f64, intervals: usize, out: &mut [f64]) {
+    out.iter_mut().for_each(|v| *v = 0.0);
+    if intervals == 0 {
+        return;
+    }
+    let h = 2.0 / intervals as f64;
+    let t = ((u.clamp(-1.0, 1.0) + 1.0) / h).min(intervals as f64 - 1e-12);
+    let i = t.floor() as usize;
+    let f = t - i as f64;
+    let g = 1.0 - f;
+    // the four non-zero cubic B-splines on interval i: indices i … i+3
+    let w = [
+        g * g * g / 6.0,
+        (3.0 * f * f * f - 6.0 * f * f + 4.0) / 6.0,
+        (-3.0 * f * f * f + 3.0 * f * f + 3.0 * f + 1.0) / 6.0,
+        f * f * f / 6.0,
+    ];
+    for (k, wk) in w.iter().enumerate() {
+        if let Some(o) = out.get_mut(i + k) {
+            *o = *wk;
+        }
+    }
+}
+
+/// V(u) = 1 + Σ_j v_j·u^j.
+pub fn falloff(v: &[f64], u: f64) -> f64 {
+    let mut p = u;
+    let mut s = 1.0;
+    for vj in v {
+        s += vj * p;
+        p *= u;
+    }
+    s
+}
+
+/// Number of continuum intervals for a profile spanning `span_nm` with passband `fwhm_nm`:
+/// knots at least `knot_fwhm` FWHM apart, within [`CONTINUUM_INTERVALS`].
+pub fn continuum_intervals_for(span_nm: f64, fwhm_nm: f64, knot_fwhm: f64) -> usize {
+    let n = (span_nm.abs() / (knot_fwhm * fwhm_nm.max(1e-6))).floor();
+    (n.max(0.0) as usize).clamp(CONTINUUM_INTERVALS.0, CONTINUUM_INTERVALS.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cubic_bspline_is_a_non_negative_partition_of_unity() {
+        for n in [3, 6, 11] {
+            let mut row = vec![0.0; n + 3];
+            for i in 0..=200 {
+                let u = -1.0 + 2.0 * i as f64 / 200.0;
+                cubic_bspline_row(u, n, &mut row);
+                assert!(row.iter().all(|v| *v >= 0.0));
+                assert!((row.iter().sum::<f64>() - 1.0).abs() < 1e-12, "u {u}");
+            }
+        }
+    }
+
+    #[test]
+    fn falloff_is_one_at_the_centre() {
+        assert_eq!(falloff(&[0.3, -0.2], 0.0), 1.0);
+        assert!((falloff(&[0.0, -0.2], 1.0) - 0.8).abs() < 1e-15);
+    }
+}
+
+/// Radial fall-off estimated from the image itself: how each strip across the axis differs
+/// from the ROI's mean (see [`estimate_radial_falloff`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RadialFalloff {
+    /// κ₀, κ₁ in d ln V / d(r²) = κ₀ + κ₁·r² (r = distance from the image centre over the half
+    /// diagonal).
+    pub kappa: [f64; 2],
+    /// Their standard errors (κ₁'s is 0 when it was not significant and left out).
+    pub kappa_sigma: [f64; 2],
+    /// The centre assumed (source px): the image centre.
+    pub centre_px: [f64; 2],
+    /// Half diagonal (px).
+    pub half_diagonal_px: f64,
+    /// V at the first and last profile position over its largest value.
+    pub at_ends: [f64; 2],
+    /// Strip × position × channel samples used.
+    pub samples: usize,
+    /// V at each profile position, peak 1.
+    #[serde(skip)]
+    pub along: Vec<f64>,
+}
+
+/// Smallest signal (fraction of the channel's peak) at which a strip ratio is used.
+const STRIP_MIN_SIGNAL: f64 = 0.05;
+
+/// Estimates a radial fall-off V(r) about the image centre from the strips of the ROI across
+/// the filter axis.
+///
+/// Along the axis the fall-off is, to first order, indistinguishable from a shift of the map
+/// (g(λ−λ₀)·(1 + ε(λ−λ₀)) ≈ g(λ−λ₀−εσ²) for a Gaussian passband of width σ), so a lamp profile
+/// alone cannot determine it. Across the axis the wavelength is constant and only V changes:
+/// at position a along the axis, strip j at distance b_j across has
+/// ln(y_j/ȳ) ≈ κ(r²)·(q_j − q̄), q = (b − b_c)²/R², κ = d ln V/d(r²) — the same for every line,
+/// continuum and channel. κ(r²) = κ₀ + κ₁·r² is solved by weighted least squares (weights
+/// value²·pixels, positions where the channel is above 5 % of its peak), κ₁ kept only when
+/// above 4σ (the formal σ underestimates the scatter by up to ~2×), and V along the profile is
+/// exp(κ₀·Q + κ₁·Q²/2), Q = r² on the profile's centre
+/// line. This assumes the fall-off is radial about the image centre (lens vignetting,
+/// cos⁴ law); a tilt or an off-centre fall-off is not seen this way (a flat-field photo would
+/// be needed).
+///
+/// Returns `None` when the ROI has fewer than 2 strips or the strips do not span different
+/// radii.
+pub fn estimate_radial_falloff(profile: &crate::lvf::Profile) -> Option<RadialFalloff> {
+    if profile.strips.len() < 2 {
+        return None;
+    }
+    let [w, h] = profile.frame_size;
+    let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let r2 = (cx * cx + cy * cy).max(1e-12);
+    let (ca, cb) = match profile.axis {
+        crate::lvf::Axis::X => (cx, cy),
+        crate::lvf::Axis::Y => (cy, cx),
+    };
+    let qb: Vec<f64> = profile
+        .strips
+        .iter()
+        .map(|s| (s.across_px - cb).powi(2) / r2)
+        .collect();
+    let n = profile.px.len();
+    let qbar: Vec<f64> = (0..n)
+        .map(|i| {
+            let (mut sq, mut sn) = (0.0, 0.0);
+            for (s, q) in profile.strips.iter().zip(&qb) {
+                sq += s.counts[i] as f64 * q;
+                sn += s.counts[i] as f64;
+            }
+            if sn > 0.0 {
+                sq / sn
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let big_q: Vec<f64> = (0..n)
+        .map(|i| (profile.px[i] - ca).powi(2) / r2 + qbar[i])
+        .collect();
+    // rows (d, d·Q) → ln ratio, weight
+    let mut rows: Vec<(f64, f64, f64, f64)> = Vec::new();
+    for c in 0..3 {
+        let v = &profile.values[c];
+        let peak = v.iter().cloned().fold(0.0, f64::max);
+        if peak <= 0.0 {
+            continue;
+        }
+        for i in 0..n {
+            if v[i] < STRIP_MIN_SIGNAL * peak {
+                continue;
+            }
+            for (s, q) in profile.strips.iter().zip(&qb) {
+                let sv = s.values[c][i];
+                if !(sv.is_finite() && sv > 0.0) || s.counts[i] == 0 {
+                    continue;
+                }
+                let d = q - qbar[i];
+                rows.push((
+                    d,
+                    d * big_q[i],
+                    (sv / v[i]).ln(),
+                    v[i] * v[i] * s.counts[i] as f64,
+                ));
+            }
+        }
+    }
+    let solve = |two: bool| -> Option<([f64; 2], [f64; 2])> {
+        let (mut a00, mut a01, mut a11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(x0, x1, y, wt) in &rows {
+            a00 += wt * x0 * x0;
+            a01 += wt * x0 * x1;
+            a11 += wt * x1 * x1;
+            b0 += wt * x0 * y;
+            b1 += wt * x1 * y;
+        }
+        let m = rows.len() as f64;
+        let p = if two { 2.0 } else { 1.0 };
+        if a00 <= 0.0 || m <= p + 1.0 {
+            return None;
+        }
+        let k = if two {
+            let det = a00 * a11 - a01 * a01;
+            if det <= 1e-12 * a00 * a11 {
+                return None;
+            }
+            [(b0 * a11 - b1 * a01) / det, (a00 * b1 - a01 * b0) / det]
+        } else {
+            [b0 / a00, 0.0]
+        };
+        let (mut sr, mut sw) = (0.0, 0.0);
+        for &(x0, x1, y, wt) in &rows {
+            let r = y - k[0] * x0 - k[1] * x1;
+            sr += wt * r * r;
+            sw += wt;
+        }
+        let _ = sw;
+        let s2 = sr / (m - p);
+        let sig = if two {
+            let det = a00 * a11 - a01 * a01;
+            [(s2 * a11 / det).sqrt(), (s2 * a00 / det).sqrt()]
+        } else {
+            [(s2 / a00).sqrt(), 0.0]
+        };
+        Some((k, sig))
+    };
+    let (mut kappa, mut sigma) = solve(true).or_else(|| solve(false))?;
+    if kappa[1].abs() < 4.0 * sigma[1] {
+        (kappa, sigma) = solve(false)?;
+    }
+    let ln_v: Vec<f64> = big_q
+        .iter()
+        .map(|&q| kappa[0] * q + 0.5 * kappa[1] * q * q)
+        .collect();
+    let top = ln_v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let along: Vec<f64> = ln_v.iter().map(|l| (l - top).exp()).collect();
+    Some(RadialFalloff {
+        kappa,
+        kappa_sigma: sigma,
+        centre_px: [cx, cy],
+        half_diagonal_px: r2.sqrt(),
+        at_ends: [along[0], along[n - 1]],
+        samples: rows.len(),
+        along,
+    })
+}
