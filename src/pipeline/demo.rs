@@ -245,7 +245,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
     let mut r = report(
         "lvf",
         "LVF: wavelength calibration → bands → spectral recovery",
-        "synth lvf-hg → lvf calibrate → lvf transmission --model calibration → synth lvf-capture → spectrum recover",
+        "synth lvf-hg (4 % flat continuum, quadratic vignetting 0.2, 1 % noise) → lvf calibrate → lvf transmission --model calibration → synth lvf-capture → spectrum recover",
     );
     let (w, h) = (1200, 160);
     let camera = crate::io::camera::read_camera(None)?.curves;
@@ -260,6 +260,12 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         camera: camera.clone(),
         noise: 0.01,
         vignetting: 0.2,
+        vignetting_shape: crate::lvf::synth::VignettingShape::Quadratic,
+        // a lamp photo has a continuum under its lines (stray light, black-level residue)
+        continuum: Some(crate::lvf::synth::Continuum {
+            shape: crate::lvf::synth::ContinuumShape::Flat,
+            fraction: 0.04,
+        }),
         seed: 1,
     };
     let (frame, _truth) = render_lvf(&spec)?;
@@ -274,6 +280,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         fwhm_guess_nm: 25.0,
         direction: Direction::Auto,
         n_bands: 31,
+        ..FitOptions::default()
     };
     let cal = calibrate_whole_profile(&profile, &resolve_lamp("hg")?, &opts)?;
     let lvf_json = serde_json::to_string_pretty(&cal)
@@ -334,6 +341,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
             camera: camera.clone(),
             noise: 0.002,
             vignetting: 0.0,
+            vignetting_shape: crate::lvf::synth::VignettingShape::Quadratic,
             seed,
             exposure,
         })
@@ -1069,7 +1077,8 @@ fn light_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
     use crate::io::ies::parse_ies;
     use crate::photometry::illuminance::RectLight;
     use crate::photometry::summary;
-    use crate::preset::photometric::{gltf_light, photometric_section};
+    use crate::preset::export::light::gltf_light;
+    use crate::preset::photometric::photometric_section;
 
     let mut r = report(
         "light",
