@@ -800,6 +800,9 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<MergedShards> {
     })
 }
 
+/// Files to stage: (path relative to the output folder, bytes).
+pub type NamedFiles = Vec<(String, Vec<u8>)>;
+
 /// The peak resident set of this process in MiB (`VmHWM` of `/proc/self/status`; `None` where
 /// there is no such file).
 pub fn peak_rss_mib() -> Option<f64> {
@@ -853,58 +856,6 @@ pub fn per_pixel_summary(
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn cfg(mem: u64) -> PerPixelConfig {
-        PerPixelConfig {
-            block: 1,
-            tile: None,
-            memory_mib: mem,
-            scratch_dir: PathBuf::from("/tmp"),
-            shard: None,
-            darks: vec![],
-            threads: 2,
-        }
-    }
-
-    #[test]
-    fn a_camera_series_goes_to_a_scratch_file_under_a_small_budget_and_to_memory_under_a_large_one()
-    {
-        let small = plan(6000, 4000, 37, SampleEncoding::U16, 0, &cfg(4096)).unwrap();
-        assert!(small.storage.starts_with("scratch"), "{small:?}");
-        assert!(small.peak_estimate_mib <= 4096.0);
-        let large = plan(6000, 4000, 37, SampleEncoding::U16, 0, &cfg(16 * 1024)).unwrap();
-        assert_eq!(large.storage, "memory");
-        assert!(
-            large.store_mib > 5000.0 && large.store_mib < 5100.0,
-            "{}",
-            large.store_mib
-        );
-        let e = plan(6000, 4000, 37, SampleEncoding::U16, 0, &cfg(512)).unwrap_err();
-        assert!(e.to_string().contains("--memory-gb"), "{e}");
-    }
-
-    #[test]
-    fn shards_split_the_tile_rows_without_overlap() {
-        let mut c = cfg(4096);
-        c.tile = Some(64);
-        let mut next = 0;
-        for i in 0..4 {
-            c.shard = Some(Shard { index: i, count: 4 });
-            let p = plan(300, 200, 10, SampleEncoding::U16, 0, &c).unwrap();
-            assert_eq!(p.block_rows[0], next);
-            next = p.block_rows[1];
-        }
-        assert_eq!(next, 200);
-        c.shard = Some(Shard { index: 0, count: 5 });
-        assert!(plan(300, 200, 10, SampleEncoding::U16, 0, &c).is_err());
-        assert!(Shard::parse("4/4").is_err() && Shard::parse("x").is_err());
-        assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
-    }
-}
-
 /// The files of `--materials` (see [`crate::phosphor::cluster`]): one preset per material
 /// (`material_<k>.json`, RGB bands, Λ_i,c = a_i·S_c/k_i as `phos fit-decay` writes them), the
 /// index map `materials.png` (8-bit grey when K ≤ 255, else 16-bit: 0 where the fit failed,
@@ -918,7 +869,7 @@ pub fn material_files(
     count: crate::phosphor::cluster::MaterialCount,
     series: &Path,
     name: &str,
-) -> Result<(Vec<(String, Vec<u8>)>, serde_json::Value)> {
+) -> Result<(NamedFiles, serde_json::Value)> {
     use crate::phosphor::cluster::{cluster_materials, MaterialCount};
     use crate::preset::{
         phosphor::provenance_of_files, to_json_string, Bands, MaterialPreset,
@@ -1063,7 +1014,7 @@ pub fn map_extras(
     maps: &PixelMaps,
     name: &str,
     provenance_files: &[PathBuf],
-) -> Result<(Vec<(String, Vec<u8>)>, Option<String>)> {
+) -> Result<(NamedFiles, Option<String>)> {
     use crate::plot::maps::{map_preview_png, MapPreview};
     use crate::preset::{
         phosphor::provenance_of_files, to_json_string, Bands, MaterialPreset,
@@ -1148,4 +1099,56 @@ pub fn map_extras(
     });
     files.push(("preset.json".into(), to_json_string(&preset)?.into_bytes()));
     Ok((files, Some("preset.json".into())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(mem: u64) -> PerPixelConfig {
+        PerPixelConfig {
+            block: 1,
+            tile: None,
+            memory_mib: mem,
+            scratch_dir: PathBuf::from("/tmp"),
+            shard: None,
+            darks: vec![],
+            threads: 2,
+        }
+    }
+
+    #[test]
+    fn a_camera_series_goes_to_a_scratch_file_under_a_small_budget_and_to_memory_under_a_large_one()
+    {
+        let small = plan(6000, 4000, 37, SampleEncoding::U16, 0, &cfg(4096)).unwrap();
+        assert!(small.storage.starts_with("scratch"), "{small:?}");
+        assert!(small.peak_estimate_mib <= 4096.0);
+        let large = plan(6000, 4000, 37, SampleEncoding::U16, 0, &cfg(16 * 1024)).unwrap();
+        assert_eq!(large.storage, "memory");
+        assert!(
+            large.store_mib > 5000.0 && large.store_mib < 5100.0,
+            "{}",
+            large.store_mib
+        );
+        let e = plan(6000, 4000, 37, SampleEncoding::U16, 0, &cfg(512)).unwrap_err();
+        assert!(e.to_string().contains("--memory-gb"), "{e}");
+    }
+
+    #[test]
+    fn shards_split_the_tile_rows_without_overlap() {
+        let mut c = cfg(4096);
+        c.tile = Some(64);
+        let mut next = 0;
+        for i in 0..4 {
+            c.shard = Some(Shard { index: i, count: 4 });
+            let p = plan(300, 200, 10, SampleEncoding::U16, 0, &c).unwrap();
+            assert_eq!(p.block_rows[0], next);
+            next = p.block_rows[1];
+        }
+        assert_eq!(next, 200);
+        c.shard = Some(Shard { index: 0, count: 5 });
+        assert!(plan(300, 200, 10, SampleEncoding::U16, 0, &c).is_err());
+        assert!(Shard::parse("4/4").is_err() && Shard::parse("x").is_err());
+        assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
+    }
 }
