@@ -299,3 +299,47 @@ fn bad_histories_are_exit_2_naming_file_line_and_column_and_write_nothing() {
         assert!(!Path::new(&out).exists(), "{csv}: nothing may be written");
     }
 }
+
+#[test]
+fn phos_design_refuses_bad_histories_naming_file_line_and_column() {
+    let d = tempfile::tempdir().unwrap();
+    let t = p(d.path(), "t.csv");
+    std::fs::write(&t, "time_s,l_r,l_g,l_b\n30,0.1,0.2,0.3\n").unwrap();
+    let out = p(d.path(), "m.json");
+    let cases: [(&str, &[&str]); 4] = [
+        (
+            "time_s,e_r,e_g\n0,1,1\n",
+            &["line 1", "2 irradiance columns", "3 bands"],
+        ),
+        (
+            "time_s,e_r,e_g,e_b\n0,1,1,1\n60,0,0,0\n60,0,0,0\n",
+            &["line 4", "duplicated"],
+        ),
+        (
+            "duration_s,e_r,e_g,e_b\n60,1,1,1\n-1,0,0,0\n",
+            &["line 3", "duration > 0"],
+        ),
+        (
+            "duration_s,e_r,e_g,time_s\n60,1,1,1\n",
+            &["line 1", "not both"],
+        ),
+    ];
+    for (csv, want) in cases {
+        let h = p(d.path(), "h.csv");
+        std::fs::write(&h, csv).unwrap();
+        let o = lumifit(&[
+            "phos",
+            "design",
+            "--history",
+            &h,
+            "--targets",
+            &t,
+            "--out",
+            &out,
+        ]);
+        let mut frags = vec!["h.csv"];
+        frags.extend_from_slice(want);
+        assert_rejected(&o, &frags);
+        assert!(!Path::new(&out).exists(), "{csv}: nothing may be written");
+    }
+}

@@ -669,7 +669,8 @@ impl HistoryCsv {
                 source,
                 1,
                 format!(
-                    "{} irradiance columns; the material has {n_bands} bands, expected one column per band",
+                    "{} irradiance columns; expected one column per band ({n_bands} bands: the \
+                     material's for phos simulate, e_r,e_g,e_b for phos design)",
                     t.header.len() - 1
                 ),
             ));
