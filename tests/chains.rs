@@ -796,3 +796,123 @@ fn fit_excitation_refuses_a_decay_preset_in_other_units_than_its_charging_curves
     );
     assert!(!d.join("x.json").exists());
 }
+
+/// The CSV columns `name` of `text` at the rows whose `time_s` is `t`.
+fn csv_row_at(text: &str, t: f64, names: &[&str]) -> Vec<f64> {
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let idx: Vec<usize> = names
+        .iter()
+        .map(|n| header.iter().position(|h| h == n).unwrap())
+        .collect();
+    let row: Vec<f64> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .find(|r| r[0] == t)
+        .unwrap_or_else(|| panic!("no row at {t} s"));
+    idx.iter().map(|&i| row[i]).collect()
+}
+
+/// `phos design` on a history and targets → the designed preset → `phos simulate` under the very
+/// history file the design read: the simulated emission at every keyframe reproduces the target
+/// within the design's own reported residual for that keyframe (docs/cli.md, chain=phos). The
+/// targets are L = Λ k_r r(t) of Λ = (0.5, 1, 0.2), k_r = 0.02 s⁻¹, Σ k_e E = 0.03 s⁻¹ for 60 s.
+#[test]
+fn the_history_phos_design_reads_feeds_phos_simulate_and_reproduces_the_targets() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "history.csv",
+        "time_s,e_r,e_g,e_b\n0,1,1,1\n60,0,0,0\n240,0,0,0\n",
+    );
+    let targets = "time_s,l_r,l_g,l_b\n30,0.00466122,0.00932244,0.00186449\n\
+                   60,0.00570128,0.0114026,0.00228051\n90,0.00312893,0.00625785,0.00125157\n\
+                   120,0.00171719,0.00343438,0.000686877\n180,0.000517208,0.00103442,0.000206883\n\
+                   240,0.00015578,0.00031156,6.23121e-05\n";
+    write(d, "targets.csv", targets);
+    let o = lumifit(&[
+        "phos",
+        "design",
+        "--history",
+        &p(d, "history.csv"),
+        "--targets",
+        &p(d, "targets.csv"),
+        "--out",
+        &p(d, "designed.json"),
+    ]);
+    ok(&o);
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["reachable"], true, "{report}");
+    let o = lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        &p(d, "designed.json"),
+        "--history",
+        &p(d, "history.csv"),
+        "--dt",
+        "1",
+        "--out",
+        &p(d, "simulation.csv"),
+    ]);
+    ok(&o);
+    assert!(!stderr(&o).contains("deprecated"), "{}", stderr(&o));
+    let sim = std::fs::read_to_string(d.join("simulation.csv")).unwrap();
+    let keys = report["refined"]["keyframes"].as_array().unwrap();
+    assert_eq!(keys.len(), 6);
+    for k in keys {
+        let t = k["time_s"].as_f64().unwrap();
+        let target: Vec<f64> = (0..3).map(|c| k["target"][c].as_f64().unwrap()).collect();
+        let reported = k["relative_residual"].as_f64().unwrap();
+        let l = csv_row_at(&sim, t, &["L_r", "L_g", "L_b"]);
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let diff: Vec<f64> = l.iter().zip(&target).map(|(a, b)| a - b).collect();
+        let rel = norm(&diff) / norm(&target);
+        assert!(
+            rel <= reported * (1.0 + 1e-6) + 1e-12,
+            "t = {t} s: simulated {l:?} vs target {target:?}: relative error {rel:e} > the design's {reported:e}"
+        );
+        assert!(rel < 1e-4, "t = {t} s: {rel:e}");
+    }
+    // The old layout of the same history: the same design and the same simulation, with a warning.
+    write(
+        d,
+        "old.csv",
+        "duration_s,e_r,e_g,e_b\n60,1,1,1\n180,0,0,0\n",
+    );
+    let o = lumifit(&[
+        "phos",
+        "simulate",
+        "--material",
+        &p(d, "designed.json"),
+        "--history",
+        &p(d, "old.csv"),
+        "--dt",
+        "1",
+        "--out",
+        &p(d, "old_sim.csv"),
+    ]);
+    ok(&o);
+    assert!(stderr(&o).contains("deprecated"), "{}", stderr(&o));
+    assert_eq!(sim, std::fs::read_to_string(d.join("old_sim.csv")).unwrap());
+    let o = lumifit(&[
+        "phos",
+        "design",
+        "--history",
+        &p(d, "old.csv"),
+        "--targets",
+        &p(d, "targets.csv"),
+        "--out",
+        &p(d, "designed_old.json"),
+    ]);
+    ok(&o);
+    assert!(stderr(&o).contains("deprecated"), "{}", stderr(&o));
+    let old: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for f in ["k_e", "k_r_per_s", "lambda", "keyframes"] {
+        assert_eq!(old["refined"][f], report["refined"][f], "{f}");
+    }
+}

@@ -11,11 +11,11 @@
 //! | decay curve | [`CurveCsv`] | `time_s,r,g,b[,std\|weight]` (or one value column) |
 //! | batch of curves | [`BatchCsv`] | `id,time_s,r,g,b[,std]` |
 //! | batch results | [`BatchResultRow`] | [`BATCH_HEADER`] |
-//! | irradiance history (`phos simulate`) | [`HistoryCsv`] | `duration_s,<one column per band>` |
+//! | irradiance history (`phos simulate`, `phos design`) | [`HistoryCsv`] | `time_s,<one column per band>` (old `duration_s,…` read with a warning) |
 //! | simulation output | [`SimulationCsv`] | `time_s,L_…,r_1…[,r,g,b]` |
 //! | charging data | [`ChargingCsv`] | `band,charge_s,r,g,b[,std]` |
 //! | source spectra | [`SourceSpectraCsv`] | `wavelength_nm,band1,band2,…` |
-//! | design history | [`DesignHistoryCsv`] | `time_s,e_r,e_g,e_b` |
+//! | design history (RGB) | [`DesignHistoryCsv`] | `time_s,e_r,e_g,e_b` |
 //! | keyframe targets | [`KeyframesCsv`] | `time_s,l_r,l_g,l_b` |
 //! | charging protocol of a decay series | [`ChargingJson`] | `charging.json`: `{"schema": "lumifit.charging/1", "protocol": …}` |
 
@@ -580,90 +580,301 @@ impl BatchResultRow {
     }
 }
 
-/// An irradiance history of `phos simulate`: `duration_s` then one column per band of the
-/// material; durations > 0, irradiance ≥ 0.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HistoryCsv {
-    /// Band column names (as written; the reader keeps the file's names).
-    pub names: Vec<String>,
-    /// The segments.
-    pub segments: Vec<Segment>,
+/// The layout a history CSV was written in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HistoryLayout {
+    /// `time_s,<bands>`: the documented layout (breakpoints; see [`HistoryCsv`]).
+    Times,
+    /// `duration_s,<bands>`: the old layout of `phos simulate` (one row per segment), accepted
+    /// for one release with a deprecation warning.
+    Durations,
 }
 
+/// An irradiance history (`docs/conventions.md`, "irradiance histories"): `time_s` then one
+/// column per band (`e_r,e_g,e_b` for RGB). Row k's irradiance holds from its time to the next
+/// row's time; the last row's time ends the history (`phos simulate` stops there) and its
+/// irradiance holds after it (`phos design` evaluates later keyframes under it). Times strictly
+/// increasing, irradiance ≥ 0.
+///
+/// The old `duration_s,<bands>` layout (one row per segment of that duration, the history
+/// starting at 0 s) is read with the same meaning: rows start at the running sum of the
+/// durations and a last row at the total time, dark, ends the history.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HistoryCsv {
+    /// Band column names (as written; `e_r,e_g,e_b` in any order are put in that order).
+    pub names: Vec<String>,
+    /// Row start times in s.
+    pub t_s: Vec<f64>,
+    /// Irradiance per row, one value per band.
+    pub irradiance: Vec<Vec<f64>>,
+    /// The layout the file was written in.
+    pub layout: HistoryLayout,
+    /// Line of every row in the file (for a `duration_s` file: the last row has the line of
+    /// the last segment).
+    pub lines: Vec<usize>,
+}
+
+/// The RGB band columns of a history.
+pub const HISTORY_COLUMNS: [&str; 3] = ["e_r", "e_g", "e_b"];
+
 impl HistoryCsv {
-    /// Parses a history for a material of `n_bands` bands.
+    /// Parses a history for a material of `n_bands` bands; errors name `source`, the line and,
+    /// for a header, the column.
     pub fn parse(bytes: &[u8], source: &str, n_bands: usize) -> Result<Self> {
         let t = parse_numeric_csv(bytes, source)?;
-        if t.column_index("duration_s") != Some(0) {
-            return Err(Error::parse(
-                source,
-                1,
-                "expected the header to start with 'duration_s', then one irradiance column per band",
-            ));
-        }
+        let ti = t.column_index("time_s");
+        let di = t.column_index("duration_s");
+        let layout = match (ti, di) {
+            (Some(a), Some(b)) => {
+                return Err(Error::parse(
+                    source,
+                    1,
+                    format!(
+                        "both 'time_s' (column {}) and 'duration_s' (column {}); a history gives \
+                         either row start times 'time_s' (the documented layout) or segment \
+                         durations 'duration_s' (deprecated), not both",
+                        a + 1,
+                        b + 1
+                    ),
+                ))
+            }
+            (Some(0), None) => HistoryLayout::Times,
+            (None, Some(0)) => HistoryLayout::Durations,
+            (Some(c), None) | (None, Some(c)) => {
+                return Err(Error::parse(
+                    source,
+                    1,
+                    format!(
+                        "'{}' in column {}; expected it in column 1, then one irradiance column \
+                         per band",
+                        t.header[c],
+                        c + 1
+                    ),
+                ))
+            }
+            (None, None) => {
+                return Err(Error::parse(
+                    source,
+                    1,
+                    format!(
+                        "column 1 is '{}'; expected a history 'time_s' then one irradiance \
+                         column per band (e.g. 'time_s,e_r,e_g,e_b')",
+                        t.header.first().map_or("", |s| s.as_str())
+                    ),
+                ))
+            }
+        };
         if t.header.len() != n_bands + 1 {
             return Err(Error::parse(
                 source,
                 1,
                 format!(
-                    "{} irradiance columns; the material has {n_bands} bands, expected one column per band",
+                    "{} irradiance columns; expected one column per band ({n_bands} bands: the \
+                     material's for phos simulate, e_r,e_g,e_b for phos design)",
                     t.header.len() - 1
                 ),
             ));
         }
-        let mut segments = Vec::with_capacity(t.n_rows());
-        for r in 0..t.n_rows() {
-            let d = t.columns[0][r];
-            if d <= 0.0 {
-                return Err(Error::parse(
-                    source,
-                    t.lines[r],
-                    format!("duration {d} s; expected a duration > 0"),
-                ));
-            }
-            let e: Vec<f64> = (1..=n_bands).map(|c| t.columns[c][r]).collect();
-            if let Some(v) = e.iter().find(|v| **v < 0.0) {
-                return Err(Error::parse(
-                    source,
-                    t.lines[r],
-                    format!("irradiance {v}; expected values ≥ 0"),
-                ));
-            }
-            segments.push(Segment {
-                duration_s: d,
-                irradiance: e,
-            });
-        }
-        if segments.is_empty() {
+        if t.n_rows() == 0 {
             return Err(Error::parse(
                 source,
                 0,
-                "no segments; expected at least one data row",
+                "no rows; expected at least one data row",
             ));
         }
+        // RGB columns by name when all three are there, in any order; otherwise in file order.
+        let mut cols: Vec<usize> = (1..=n_bands).collect();
+        if n_bands == 3 {
+            let by_name: Option<Vec<usize>> =
+                HISTORY_COLUMNS.iter().map(|c| t.column_index(c)).collect();
+            if let Some(b) = by_name {
+                cols = b;
+            }
+        }
+        let mut irradiance = Vec::with_capacity(t.n_rows() + 1);
+        for r in 0..t.n_rows() {
+            let e: Vec<f64> = cols.iter().map(|&c| t.columns[c][r]).collect();
+            if let Some(k) = e.iter().position(|v| *v < 0.0) {
+                return Err(Error::parse(
+                    source,
+                    t.lines[r],
+                    format!(
+                        "irradiance {} in column '{}'; expected values ≥ 0",
+                        e[k], t.header[cols[k]]
+                    ),
+                ));
+            }
+            irradiance.push(e);
+        }
+        let first = &t.header[0];
+        let mut lines = t.lines.clone();
+        let t_s = match layout {
+            HistoryLayout::Times => {
+                let ts = t.columns[0].clone();
+                for r in 1..ts.len() {
+                    if ts[r] <= ts[r - 1] {
+                        let what = if ts[r] == ts[r - 1] {
+                            "duplicated"
+                        } else {
+                            "decreasing"
+                        };
+                        return Err(Error::parse(
+                            source,
+                            t.lines[r],
+                            format!(
+                                "{first} {} s after {} s ({what}); expected strictly increasing \
+                                 row start times",
+                                ts[r],
+                                ts[r - 1]
+                            ),
+                        ));
+                    }
+                }
+                ts
+            }
+            HistoryLayout::Durations => {
+                let mut ts = Vec::with_capacity(t.n_rows() + 1);
+                let mut now = 0.0;
+                for r in 0..t.n_rows() {
+                    let d = t.columns[0][r];
+                    if d <= 0.0 {
+                        return Err(Error::parse(
+                            source,
+                            t.lines[r],
+                            format!("{first} {d} s; expected a duration > 0"),
+                        ));
+                    }
+                    ts.push(now);
+                    now += d;
+                }
+                ts.push(now);
+                irradiance.push(vec![0.0; n_bands]);
+                lines.push(*t.lines.last().unwrap_or(&0));
+                ts
+            }
+        };
         Ok(Self {
-            names: t.header[1..].to_vec(),
-            segments,
+            names: cols.iter().map(|&c| t.header[c].clone()).collect(),
+            t_s,
+            irradiance,
+            layout,
+            lines,
         })
     }
 
-    /// Reads a history file.
-    pub fn read(path: &Path, n_bands: usize) -> Result<Vec<Segment>> {
-        let (bytes, source) = read_input(path)?;
-        Ok(Self::parse(&bytes, &source, n_bands)?.segments)
+    /// The history of `segments` from 0 s (a last, dark row at the total time ends it).
+    pub fn from_segments(names: Vec<String>, segments: &[Segment]) -> Self {
+        let mut t_s = Vec::with_capacity(segments.len() + 1);
+        let mut irradiance = Vec::with_capacity(segments.len() + 1);
+        let mut now = 0.0;
+        for s in segments {
+            t_s.push(now);
+            irradiance.push(s.irradiance.clone());
+            now += s.duration_s;
+        }
+        t_s.push(now);
+        irradiance.push(vec![0.0; names.len()]);
+        let lines = (2..2 + t_s.len()).collect();
+        Self {
+            names,
+            t_s,
+            irradiance,
+            layout: HistoryLayout::Times,
+            lines,
+        }
     }
 
-    /// The CSV text.
+    /// The segments `phos simulate` integrates, from 0 s to the last row's time: a history that
+    /// starts after 0 s is preceded by a dark segment (exact: the material starts dark).
+    ///
+    /// # Errors
+    /// [`Error::Parse`] naming `source` and the line for a history of one row (no end time) or
+    /// one that starts before 0 s.
+    pub fn to_segments(&self, source: &str) -> Result<Vec<Segment>> {
+        let n = self.t_s.len();
+        if n < 2 {
+            return Err(Error::parse(
+                source,
+                self.lines.first().copied().unwrap_or(0),
+                "one row, so the history has no end; expected a last row at the time the \
+                 history ends (e.g. 'time_s,…' rows '0,1,…' and '60,0,…' for 60 s of light)",
+            ));
+        }
+        if self.t_s[0] < 0.0 {
+            return Err(Error::parse(
+                source,
+                self.lines[0],
+                format!(
+                    "time_s {} s; expected a history that starts at 0 s or later (the \
+                     simulation starts dark at 0 s)",
+                    self.t_s[0]
+                ),
+            ));
+        }
+        let mut segs = Vec::with_capacity(n);
+        if self.t_s[0] > 0.0 {
+            segs.push(Segment {
+                duration_s: self.t_s[0],
+                irradiance: vec![0.0; self.names.len()],
+            });
+        }
+        for k in 0..n - 1 {
+            segs.push(Segment {
+                duration_s: self.t_s[k + 1] - self.t_s[k],
+                irradiance: self.irradiance[k].clone(),
+            });
+        }
+        Ok(segs)
+    }
+
+    /// The RGB history `phos design` takes.
+    ///
+    /// # Errors
+    /// [`Error::ShapeMismatch`] when the history does not have three bands.
+    pub fn to_rgb(&self) -> Result<IrradianceHistory> {
+        if self.names.len() != 3 {
+            return Err(Error::ShapeMismatch {
+                what: "history bands (e_r,e_g,e_b)".into(),
+                expected: 3,
+                got: self.names.len(),
+            });
+        }
+        Ok(IrradianceHistory {
+            t_s: self.t_s.clone(),
+            e: self.irradiance.iter().map(|e| [e[0], e[1], e[2]]).collect(),
+        })
+    }
+
+    /// The deprecation warning of a file in the old layout (`None` for the documented one).
+    pub fn deprecation(&self, source: &str) -> Option<String> {
+        (self.layout == HistoryLayout::Durations).then(|| {
+            format!(
+                "{source}: the 'duration_s' history layout is deprecated and will be removed in \
+                 the next release; write 'time_s,{}' with each row's start time and a last row \
+                 at the end time (read here as times {:?} s; docs/conventions.md)",
+                self.names.join(","),
+                self.t_s
+            )
+        })
+    }
+
+    /// Reads a history file for a material of `n_bands` bands, with its deprecation warning.
+    pub fn read(path: &Path, n_bands: usize) -> Result<(Self, String)> {
+        let (bytes, source) = read_input(path)?;
+        Ok((Self::parse(&bytes, &source, n_bands)?, source))
+    }
+
+    /// The CSV text in the documented layout `time_s,<bands>`.
     pub fn to_csv(&self) -> String {
-        let mut csv = String::from("duration_s");
+        let mut csv = String::from("time_s");
         for n in &self.names {
             csv.push(',');
             csv.push_str(n);
         }
         csv.push('\n');
-        for s in &self.segments {
-            csv.push_str(&format!("{}", s.duration_s));
-            for v in &s.irradiance {
+        for (t, e) in self.t_s.iter().zip(&self.irradiance) {
+            csv.push_str(&format!("{t}"));
+            for v in e {
                 csv.push_str(&format!(",{v}"));
             }
             csv.push('\n');
@@ -1086,56 +1297,32 @@ fn rgb_rows_csv(cols: [&str; 3], t_s: &[f64], rgb: &[[f64; 3]]) -> String {
     csv
 }
 
-/// The irradiance history of `phos design`: `time_s,e_r,e_g,e_b`, constant from each row's
-/// time to the next; times strictly increasing, irradiance ≥ 0.
+/// The irradiance history of `phos design`: a [`HistoryCsv`] of three bands `e_r,e_g,e_b`
+/// (`time_s,e_r,e_g,e_b`, constant from each row's time to the next, the last row holds on; the
+/// deprecated `duration_s` layout is read with the same meaning and a dark last row).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DesignHistoryCsv {
     /// The history.
     pub history: IrradianceHistory,
 }
 
-const HISTORY_COLUMNS: [&str; 3] = ["e_r", "e_g", "e_b"];
 const TARGET_COLUMNS: [&str; 3] = ["l_r", "l_g", "l_b"];
 
 impl DesignHistoryCsv {
-    /// Parses a design history.
+    /// Parses a design history (either layout; see [`HistoryCsv::deprecation`]).
     pub fn parse(bytes: &[u8], source: &str) -> Result<Self> {
-        let r = parse_rgb_rows(bytes, source, HISTORY_COLUMNS, "irradiance history")?;
-        for i in 0..r.t_s.len() {
-            if i > 0 && r.t_s[i] <= r.t_s[i - 1] {
-                return Err(Error::parse(
-                    source,
-                    r.lines[i],
-                    format!(
-                        "time {} s after {} s; times must be strictly increasing",
-                        r.t_s[i],
-                        r.t_s[i - 1]
-                    ),
-                ));
-            }
-            if let Some(v) = r.rgb[i].iter().find(|v| **v < 0.0) {
-                return Err(Error::parse(
-                    source,
-                    r.lines[i],
-                    format!("irradiance {v}; expected values ≥ 0"),
-                ));
-            }
-        }
         Ok(Self {
-            history: IrradianceHistory {
-                t_s: r.t_s,
-                e: r.rgb,
-            },
+            history: HistoryCsv::parse(bytes, source, 3)?.to_rgb()?,
         })
     }
 
-    /// Reads a design history.
-    pub fn read(path: &Path) -> Result<IrradianceHistory> {
-        let (bytes, source) = read_input(path)?;
-        Ok(Self::parse(&bytes, &source)?.history)
+    /// Reads a design history, with the deprecation warning of the old layout.
+    pub fn read(path: &Path) -> Result<(IrradianceHistory, Option<String>)> {
+        let (h, source) = HistoryCsv::read(path, 3)?;
+        Ok((h.to_rgb()?, h.deprecation(&source)))
     }
 
-    /// The CSV text.
+    /// The CSV text (`time_s,e_r,e_g,e_b`).
     pub fn to_csv(&self) -> String {
         rgb_rows_csv(HISTORY_COLUMNS, &self.history.t_s, &self.history.e)
     }
@@ -1425,25 +1612,130 @@ mod tests {
 
     #[test]
     fn a_history_round_trips_and_refuses_a_wrong_band_count() {
-        let h = HistoryCsv {
-            names: vec!["e1".into(), "e2".into()],
-            segments: vec![
-                Segment {
-                    duration_s: 60.0,
-                    irradiance: vec![1.0, 0.5],
-                },
-                Segment {
-                    duration_s: 0.25,
-                    irradiance: vec![0.0, 0.0],
-                },
-            ],
-        };
+        let segments = vec![
+            Segment {
+                duration_s: 60.0,
+                irradiance: vec![1.0, 0.5],
+            },
+            Segment {
+                duration_s: 0.25,
+                irradiance: vec![0.0, 0.0],
+            },
+        ];
+        let h = HistoryCsv::from_segments(vec!["e1".into(), "e2".into()], &segments);
         let text = format!("{BOM}{}", h.to_csv());
-        assert_eq!(HistoryCsv::parse(text.as_bytes(), "h.csv", 2).unwrap(), h);
+        assert!(
+            text.contains("time_s,e1,e2\n0,1,0.5\n60,0,0\n60.25,0,0\n"),
+            "{text}"
+        );
+        let back = HistoryCsv::parse(text.as_bytes(), "h.csv", 2).unwrap();
+        assert_eq!(back.t_s, h.t_s);
+        assert_eq!(back.irradiance, h.irradiance);
+        assert_eq!(back.layout, HistoryLayout::Times);
+        assert_eq!(back.deprecation("h.csv"), None);
+        assert_eq!(back.to_segments("h.csv").unwrap(), segments);
         let e = HistoryCsv::parse(text.as_bytes(), "h.csv", 3)
             .unwrap_err()
             .to_string();
         assert!(e.contains("h.csv: line 1") && e.contains("3 bands"), "{e}");
+    }
+
+    #[test]
+    fn the_old_duration_layout_reads_as_the_same_breakpoints_with_a_warning() {
+        let old = b"duration_s,e1,e2\n60,1,0.5\n0.25,0,0\n";
+        let h = HistoryCsv::parse(old, "old.csv", 2).unwrap();
+        assert_eq!(h.layout, HistoryLayout::Durations);
+        assert_eq!(h.t_s, vec![0.0, 60.0, 60.25]);
+        assert_eq!(
+            h.irradiance,
+            vec![vec![1.0, 0.5], vec![0.0, 0.0], vec![0.0, 0.0]]
+        );
+        let w = h.deprecation("old.csv").unwrap();
+        assert!(
+            w.contains("old.csv") && w.contains("deprecated") && w.contains("time_s,e1,e2"),
+            "{w}"
+        );
+        // Written back in the documented layout and read again: the same segments.
+        let new = HistoryCsv::parse(h.to_csv().as_bytes(), "new.csv", 2).unwrap();
+        assert_eq!(
+            new.to_segments("new.csv").unwrap(),
+            h.to_segments("old.csv").unwrap()
+        );
+        assert_eq!(
+            h.to_segments("old.csv").unwrap(),
+            vec![
+                Segment {
+                    duration_s: 60.0,
+                    irradiance: vec![1.0, 0.5]
+                },
+                Segment {
+                    duration_s: 0.25,
+                    irradiance: vec![0.0, 0.0]
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn a_history_that_starts_late_is_preceded_by_dark_and_rgb_columns_go_by_name() {
+        let h = HistoryCsv::parse(b"time_s,e_b,e_r,e_g\n10,3,1,2\n30,0,0,0\n", "h.csv", 3).unwrap();
+        assert_eq!(h.names, vec!["e_r", "e_g", "e_b"]);
+        let s = h.to_segments("h.csv").unwrap();
+        assert_eq!(s.len(), 2);
+        assert_eq!(
+            (s[0].duration_s, s[0].irradiance.clone()),
+            (10.0, vec![0.0; 3])
+        );
+        assert_eq!(
+            (s[1].duration_s, s[1].irradiance.clone()),
+            (20.0, vec![1.0, 2.0, 3.0])
+        );
+        let rgb = h.to_rgb().unwrap();
+        assert_eq!(rgb.t_s, vec![10.0, 30.0]);
+        assert_eq!(rgb.e, vec![[1.0, 2.0, 3.0], [0.0; 3]]);
+    }
+
+    #[test]
+    fn bad_histories_name_the_file_line_and_column() {
+        let cases: [(&[u8], &str); 8] = [
+            (b"time_s,e1\n0,1\n5,0\n3,0\n", "line 4"),
+            (b"time_s,e1\n0,1\n0,0\n", "duplicated"),
+            (b"duration_s,e1\n60,1\n-5,0\n", "line 3"),
+            (b"duration_s,e1\n60,1\n0,0\n", "expected a duration > 0"),
+            (b"time_s,e1,duration_s\n0,1,1\n", "column 3"),
+            (b"e1,time_s\n1,0\n", "column 2"),
+            (b"time_s,e1\n0,-1\n1,0\n", "column 'e1'"),
+            (b"t,e1\n0,1\n", "column 1 is 't'"),
+        ];
+        for (csv, want) in cases {
+            let e = HistoryCsv::parse(
+                csv,
+                "h.csv",
+                if csv.starts_with(b"time_s,e1,d") {
+                    2
+                } else {
+                    1
+                },
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains("h.csv") && e.contains(want), "{want}: {e}");
+        }
+        let e = HistoryCsv::parse(b"time_s,e1\n0,1\n", "h.csv", 1)
+            .unwrap()
+            .to_segments("h.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("h.csv: line 2") && e.contains("no end"), "{e}");
+        let e = HistoryCsv::parse(b"time_s,e1\n-1,1\n2,0\n", "h.csv", 1)
+            .unwrap()
+            .to_segments("h.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("h.csv: line 2") && e.contains("0 s or later"),
+            "{e}"
+        );
     }
 
     #[test]

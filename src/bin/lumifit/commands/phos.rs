@@ -80,7 +80,9 @@ pub struct SimulateArgs {
     /// A Table 1 material name (e.g. blue_paint) or a material preset JSON file.
     #[arg(long)]
     pub material: String,
-    /// Irradiance history CSV: `duration_s` then one column per band of the material.
+    /// Irradiance history CSV `time_s` then one column per band of the material: each row's
+    /// irradiance holds from its time to the next row's, the last row's time ends the history
+    /// (the old `duration_s,…` layout, one row per segment, is read with a warning).
     #[arg(long)]
     pub history: PathBuf,
     /// Largest time step in s (also the output sampling).
@@ -241,7 +243,11 @@ fn simulate(a: &SimulateArgs) -> Result<()> {
     out.declare("--out", &a.out)?;
     declare_plot(&mut out, &a.plot)?;
     let material = resolved.material;
-    let history = HistoryCsv::read(&a.history, material.bands.len())?;
+    let (hist_csv, hist_source) = HistoryCsv::read(&a.history, material.bands.len())?;
+    if let Some(w) = hist_csv.deprecation(&hist_source) {
+        eprintln!("warning: {w}");
+    }
+    let history = hist_csv.to_segments(&hist_source)?;
     let integrator = match a.integrator {
         IntegratorArg::Exact => Integrator::Exact,
         IntegratorArg::Rk4 => Integrator::Rk4,

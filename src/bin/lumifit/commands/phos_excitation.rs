@@ -100,7 +100,8 @@ pub struct FitExcitationArgs {
 /// `lumifit phos design`.
 #[derive(Debug, Args)]
 pub struct DesignArgs {
-    /// Irradiance history CSV `time_s,e_r,e_g,e_b` (constant from each row's time to the next).
+    /// Irradiance history CSV `time_s,e_r,e_g,e_b` (constant from each row's time to the next,
+    /// the last row holds on); the same file feeds `phos simulate`, which ends at the last row.
     #[arg(long)]
     pub history: PathBuf,
     /// Keyframe targets CSV `time_s,l_r,l_g,l_b` (outgoing radiance = albedo·E/π + L_p).
@@ -462,7 +463,10 @@ fn design_cmd(a: &DesignArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         out.declare("--plot", p)?;
     }
-    let hist = DesignHistoryCsv::read(&a.history)?;
+    let (hist, deprecation) = DesignHistoryCsv::read(&a.history)?;
+    if let Some(w) = deprecation {
+        eprintln!("warning: {w}");
+    }
     let keys = KeyframesCsv::read(&a.targets, &hist, &a.history.display().to_string())?;
     let opts = DesignOptions {
         albedo,
