@@ -330,7 +330,8 @@ fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
     let charging_given = a.saturated
         || a.charge_s.is_some()
         || a.charge_irradiance.is_some()
-        || a.charging.is_some();
+        || a.charging.is_some()
+        || a.exposure_s.is_some();
     if charging_given && (a.per_pixel || a.batch.is_some()) {
         bail!(
             "--saturated/--charge-s/--charge-irradiance/--charging/--exposure-s apply to one curve \
