@@ -597,7 +597,7 @@ fn afterimage_at_follows_the_library_synthesis_at_random_stimuli() {
                 );
             }
         }
-        if want[..3].iter().any(|&v| v == 0.0) {
+        if want[..3].contains(&0.0) {
             clamped += 1;
         }
         let w = twin.dark_weight(t).unwrap();

@@ -148,8 +148,7 @@ pub fn dispersion_snippet(
     Ok(text::dispersion(language, name, &twin))
 }
 
-/// The snippet of an afterimage section (`method` `mikamo2013`; `file` names the preset in
-/// errors).
+/// The snippet of an afterimage section (`method` `mikamo2013`).
 pub fn afterimage_snippet(
     name: &str,
     section: &super::afterimage::AfterimageSection,

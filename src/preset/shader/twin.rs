@@ -355,7 +355,7 @@ fn mul3(m: &[[f32; 3]; 3], v: [f32; 3]) -> [f32; 3] {
 }
 
 impl AfterimageTwin {
-    /// The constants of a `mikamo2013` afterimage section (`file` names the preset in errors).
+    /// The constants of a `mikamo2013` afterimage section.
     pub fn from_section(section: &AfterimageSection) -> Result<Self> {
         let c = &section.colour;
         let n = c.t_s.len();
@@ -434,7 +434,7 @@ impl AfterimageTwin {
                 .map(|&v| f64::from(v)),
         );
         crate::error::ensure_finite("shader constants (f32)", "the afterimage section", &all)?;
-        if !(twin.l_m0 > 0.0) {
+        if twin.l_m0 <= 0.0 {
             return Err(Error::invalid(
                 "afterimage.luminance.ln_y_intercept",
                 "L_M(0) is not > 0; τ_M = L_M/L_M(0) is undefined",
@@ -523,7 +523,7 @@ impl AfterimageTwin {
     pub fn afterimage_at(&self, t_s: f32, rgb: [f32; 3]) -> [f32; 3] {
         let xyz = mul3(&self.to_xyz, rgb.map(|v| v.max(0.0)));
         let y = xyz[1];
-        if !(y > 0.0) {
+        if y.is_nan() || y <= 0.0 {
             return [0.0; 3];
         }
         let [xr, yr] = self.reference_xy;
