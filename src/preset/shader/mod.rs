@@ -20,9 +20,19 @@
 //!   `fluorescence.rgb.space` and `rgb_out` what the material sends back. M has negative entries
 //!   off the diagonal; the sum can dip below zero only for lights the reduction does not
 //!   represent, so the snippet clamps the result at 0 and says so.
+//! - **dispersion** — the wavelength samples (λ_i in nm and their linear RGB weights in the
+//!   section's working space, summing to its white) and the fitted refractive-index model:
+//!   `disp_sample_count()`, `disp_sample(i) = (weight.rgb, λ)` and `disp_ior(λ_nm)`, Cauchy by
+//!   Horner in λ⁻² or Sellmeier `sqrt(1 + Σ Bᵢλ²/(λ² − Cᵢ))`, λ in µm, as
+//!   [`crate::dispersion::model::Model::n_um`] evaluates it.
+//! - **afterimage** (`mikamo2013`) — Eq. 3, Table 1 with its Catmull-Rom interpolation, the curve
+//!   Lab and, per pixel, Eq. 4–6 with the gamut correction of §3.7 (`afterimage_at(t, rgb)`, as
+//!   [`crate::afterimage::mikamo2013::Synthesizer::afterimage_unblurred`] for one pixel), plus
+//!   Eq. 7's background weight when the section records it. The image-level steps (normalisation
+//!   by the brightest Y, mask, blur, background) are the renderer's.
 //!
 //! The snippets are generated from the same `f32` constants the twins ([`PhosphorTwin`],
-//! [`FluorTwin`]) use, so the twin computes what the shader computes, operation for operation, in
+//! [`FluorTwin`], [`DispersionTwin`], [`AfterimageTwin`]) use, so the twin computes what the shader computes, operation for operation, in
 //! the same precision; the twins are tested against the library's own `f64` simulation and
 //! reduction, and the snippets are parsed and validated by `naga` in `tests/shader_export.rs`.
 
@@ -30,7 +40,10 @@ pub mod keyframes;
 mod text;
 mod twin;
 
-pub use twin::{FluorTwin, PhosphorTwin};
+pub use twin::{
+    AfterimageTwin, DispersionTwin, FluorTwin, IorKind, PhosphorTwin, MAX_DISPERSION_COEFFICIENTS,
+    MAX_DISPERSION_SAMPLES,
+};
 
 use crate::colorimetry::rgb::RgbSpace;
 use crate::colorimetry::{Observer, StandardObserver};
@@ -125,8 +138,29 @@ pub fn fluorescence_snippet(
     Ok(text::fluorescence(language, name, &twin))
 }
 
+/// The snippet of a dispersion section: its wavelength samples and refractive index model.
+pub fn dispersion_snippet(
+    name: &str,
+    section: &super::dispersion::DispersionSection,
+    language: ShaderLanguage,
+) -> Result<String> {
+    let twin = DispersionTwin::from_section(section)?;
+    Ok(text::dispersion(language, name, &twin))
+}
+
+/// The snippet of an afterimage section (`method` `mikamo2013`).
+pub fn afterimage_snippet(
+    name: &str,
+    section: &super::afterimage::AfterimageSection,
+    language: ShaderLanguage,
+) -> Result<String> {
+    let twin = AfterimageTwin::from_section(section)?;
+    Ok(text::afterimage(language, name, &twin))
+}
+
 /// Every snippet a material preset can carry, one after the other: phosphorescence (emission
-/// in linear `space`) and fluorescence (in the space its matrix was reduced to). `file` names the
+/// in linear `space`), fluorescence (in the space its matrix was reduced to), dispersion
+/// (weights in the section's working space) and afterimage (linear sRGB, the model's display). `file` names the
 /// preset in the error when it has none of these sections.
 pub fn material_snippets(
     preset: &MaterialPreset,
@@ -141,20 +175,23 @@ pub fn material_snippets(
     if let Some(f) = &preset.fluorescence {
         parts.push(fluorescence_snippet(&preset.name, f, language)?);
     }
+    if let Some(d) = &preset.dispersion {
+        parts.push(dispersion_snippet(&preset.name, d, language)?);
+    }
+    if let Some(a) = &preset.afterimage {
+        let section = super::afterimage::AfterimageSection::from_section(a, file)?;
+        parts.push(afterimage_snippet(&preset.name, &section, language)?);
+    }
     if parts.is_empty() {
-        let present: Vec<&str> = [
-            ("reflectance", preset.reflectance.is_some()),
-            ("dispersion", preset.dispersion.is_some()),
-            ("afterimage", preset.afterimage.is_some()),
-        ]
-        .iter()
-        .filter(|(_, has)| *has)
-        .map(|(n, _)| *n)
-        .collect();
+        let present: Vec<&str> = [("reflectance", preset.reflectance.is_some())]
+            .iter()
+            .filter(|(_, has)| *has)
+            .map(|(n, _)| *n)
+            .collect();
         return Err(Error::invalid(
             format!("{file}: sections"),
             format!(
-                "no section a shader snippet carries (phosphorescence, fluorescence); the preset has: {}",
+                "no section a shader snippet carries (phosphorescence, fluorescence, dispersion, afterimage); the preset has: {}",
                 if present.is_empty() { "none".to_string() } else { present.join(", ") }
             ),
         ));

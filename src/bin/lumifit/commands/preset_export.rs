@@ -1,7 +1,7 @@
 //! `lumifit preset export PRESET.json --format gltf|openpbr|mtlx|wgsl|glsl --out FILE`: renderer
 //! formats of a material preset (docs/export.md): glTF 2.0 (`.gltf` or `.glb`) of every material
 //! section with an optional lit sphere, OpenPBR parameters (JSON) and a MaterialX 1.39 document,
-//! WGSL/GLSL snippets of its phosphorescence and fluorescence sections.
+//! WGSL/GLSL snippets of its phosphorescence, fluorescence, dispersion and afterimage sections.
 
 use std::path::PathBuf;
 
@@ -286,6 +286,8 @@ fn snippets(a: &ExportArgs) -> Result<()> {
     let sections: Vec<&str> = [
         preset.phosphorescence.as_ref().map(|_| "phosphorescence"),
         preset.fluorescence.as_ref().map(|_| "fluorescence"),
+        preset.dispersion.as_ref().map(|_| "dispersion"),
+        preset.afterimage.as_ref().map(|_| "afterimage"),
     ]
     .into_iter()
     .flatten()
