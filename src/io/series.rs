@@ -315,6 +315,23 @@ pub struct LoadedSeries {
     pub warnings: Vec<String>,
 }
 
+/// A frame's time in s: the manifest's `time_s`, or the EXIF capture time of a frame listed by
+/// folder (an error naming the file when it has none).
+pub fn frame_time_s(info: &FrameInfo, row: Option<&ManifestRow>) -> Result<f64> {
+    match row {
+        Some(r) => Ok(r.time_s),
+        None => info.capture_time_s.ok_or_else(|| {
+            Error::invalid(
+                "capture time",
+                format!(
+                    "{}: no EXIF capture time, so the folder cannot be ordered; list the frames in a manifest CSV file,time_s[,…]",
+                    info.file
+                ),
+            )
+        }),
+    }
+}
+
 /// Files of a directory that look like frames (RAW or image extensions), sorted by name.
 pub fn directory_frames(dir: &Path) -> Result<Vec<PathBuf>> {
     const IMAGE_EXT: &[&str] = &["png", "tif", "tiff", "exr"];
@@ -439,18 +456,7 @@ pub fn load_series(
         let (frame, mut info) = d?;
         let exposure = resolve_exposure(&mut info, row.as_ref())?;
         warnings.extend(info.warnings.iter().cloned());
-        let time_s = match row {
-            Some(r) => r.time_s,
-            None => info.capture_time_s.ok_or_else(|| {
-                Error::invalid(
-                    "capture time",
-                    format!(
-                        "{}: no EXIF capture time, so the folder cannot be ordered; list the frames in a manifest CSV file,time_s[,…]",
-                        info.file
-                    ),
-                )
-            })?,
-        };
+        let time_s = frame_time_s(&info, row.as_ref())?;
         frames.push(SeriesFrame {
             time_s,
             exposure,

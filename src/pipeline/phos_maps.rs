@@ -330,18 +330,7 @@ fn list(series: &Path) -> Result<(Vec<Listed>, bool)> {
 /// Time in s (as listed, or the EXIF capture time for a folder) and exposure factor of a frame.
 fn frame_time(info: &mut FrameInfo, l: &Listed) -> Result<(f64, f64)> {
     let exposure = resolve_exposure(info, l.row.as_ref())?;
-    let t = match &l.row {
-        Some(r) => r.time_s,
-        None => info.capture_time_s.ok_or_else(|| {
-            Error::invalid(
-                "capture time",
-                format!(
-                    "{}: no EXIF capture time, so the folder cannot be ordered; list the frames in a manifest CSV file,time_s[,…]",
-                    info.file
-                ),
-            )
-        })?,
-    };
+    let t = crate::io::series::frame_time_s(info, l.row.as_ref())?;
     if !t.is_finite() {
         return Err(Error::invalid(
             "time_s",

@@ -35,7 +35,7 @@ use crate::error::{ensure_finite, Error, Result};
 use crate::phosphor::simulate::{final_state, Segment};
 use crate::preset::phosphor::material_from_preset;
 use crate::preset::shader::band_to_rgb;
-use crate::preset::shader::keyframes::{glow_keyframes, glow_rgb, KeyframeTolerance};
+use crate::preset::shader::keyframes::{error_ratio, glow_keyframes, glow_rgb, KeyframeTolerance};
 use crate::preset::MaterialPreset;
 
 /// The charging history before switch-off.
@@ -372,13 +372,7 @@ fn refine(
                 let fc = f64::from(fa[ch]) + s * (f64::from(fb[ch]) - f64::from(fa[ch]));
                 let err = (fc * g - exact[ch]).abs();
                 let allowed = tol.rel_tol * exact[ch].abs() + tol.abs_tol * peak;
-                worst = worst.max(if allowed > 0.0 {
-                    err / allowed
-                } else if err > 0.0 {
-                    f64::INFINITY
-                } else {
-                    0.0
-                });
+                worst = worst.max(error_ratio(err, allowed));
             }
         }
         worst

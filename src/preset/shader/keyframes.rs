@@ -49,6 +49,18 @@ pub struct GlowKeyframes {
     pub max_error: f64,
 }
 
+/// `err / allowed`: how much of its allowance an error uses (∞ for an error where none is
+/// allowed, 0 for none).
+pub fn error_ratio(err: f64, allowed: f64) -> f64 {
+    if allowed > 0.0 {
+        err / allowed
+    } else if err > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    }
+}
+
 /// Exact glow `Σ_i r0_i e^{−k_i t} C_i`.
 pub fn glow_rgb(r0: &[f64], k_r_per_s: &[f64], rgb_per_state: &[[f64; 3]], t_s: f64) -> [f64; 3] {
     let mut out = [0.0; 3];
@@ -98,13 +110,7 @@ pub fn glow_keyframes(
                 let chord = fa[ch] + s * (fb[ch] - fa[ch]);
                 let allowed = tol.rel_tol * exact[ch].abs() + tol.abs_tol * peak;
                 let err = (chord - exact[ch]).abs();
-                worst = worst.max(if allowed > 0.0 {
-                    err / allowed
-                } else if err > 0.0 {
-                    f64::INFINITY
-                } else {
-                    0.0
-                });
+                worst = worst.max(error_ratio(err, allowed));
             }
         }
         worst
