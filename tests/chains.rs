@@ -12,10 +12,8 @@ fn ok(o: &std::process::Output) {
     assert!(o.status.success(), "{}", stderr(o));
 }
 
-#[test]
-fn a_recovered_spectrum_feeds_color_xyz() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// `synth lvf-hg` → `lvf calibrate` in `d`: writes `hg.tiff`, `truth.json` and `lvf.json`.
+fn calibrated_lamp(d: &std::path::Path) {
     ok(&lumifit(&[
         "synth",
         "lvf-hg",
@@ -37,6 +35,13 @@ fn a_recovered_spectrum_feeds_color_xyz() {
         "--out",
         &p(d, "lvf.json"),
     ]));
+}
+
+#[test]
+fn a_recovered_spectrum_feeds_color_xyz() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    calibrated_lamp(d);
     write(
         d,
         "light.csv",
@@ -504,27 +509,7 @@ fn an_rgb_decay_preset_reaches_wavelength_bands_through_an_lvf_photo_of_the_glow
 fn a_recovered_reflectance_becomes_a_valid_material_preset() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--out",
-        &p(d, "hg.tiff"),
-        "--truth",
-        &p(d, "truth.json"),
-        "--seed",
-        "1",
-    ]));
-    ok(&lumifit(&[
-        "lvf",
-        "calibrate",
-        &p(d, "hg.tiff"),
-        "--roi",
-        "0,0,1200,160",
-        "--axis",
-        "x",
-        "--out",
-        &p(d, "lvf.json"),
-    ]));
+    calibrated_lamp(d);
     write(
         d,
         "patch.csv",
