@@ -28,6 +28,10 @@ mod common;
 use common::tolerances::decay_decisions::*;
 
 const N_SAMPLES: usize = 37;
+/// The generator seed of the recorded fixture.
+const FIXTURE_SEED: u64 = 1818;
+/// An independent seed for the check of the provisional three-state candidate.
+const INDEPENDENT_SEED: u64 = 2718;
 const DT_S: f64 = 5.0;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -61,8 +65,8 @@ struct Case {
 /// The benchmark distribution of `benches/decay_fit.rs` (37 RGB samples every 5 s, a spectrum
 /// (U[0.2, 1], 1, U[0.2, 1])), with the rates of each kind; every third curve carries σ from
 /// the shot + read noise model of the per-pixel maps, the others equal weights.
-fn cases() -> Vec<Case> {
-    let mut g = Gaussian::new(1818);
+fn cases(seed: u64) -> Vec<Case> {
+    let mut g = Gaussian::new(seed);
     let t: Vec<f64> = (0..N_SAMPLES).map(|i| i as f64 * DT_S).collect();
     let mut out = Vec::new();
     for (kind, count) in KINDS {
@@ -169,7 +173,7 @@ fn models() -> [(&'static str, DecayFitOptions); 2] {
 fn fit_all() -> Vec<Record> {
     let mut out = Vec::new();
     for (name, opts) in models() {
-        for (id, c) in cases().iter().enumerate() {
+        for (id, c) in cases(FIXTURE_SEED).iter().enumerate() {
             let fit = fit_decay(&c.curve, &opts).expect("every benchmark curve fits");
             out.push(Record {
                 id,
@@ -262,6 +266,65 @@ fn automatic_decay_fit_keeps_the_recorded_order_decisions_and_rates() {
         "{} of {} records differ:\n{}",
         failures.len(),
         got.len(),
+        failures.join("\n")
+    );
+}
+
+/// The provisional three-state candidate (fitted to the seed tolerance, continued only when its
+/// BIC comes near the best) against every candidate fitted to the full tolerance, on 300 curves
+/// drawn from another seed than the fixture's, in both amplitude models: the same orders and
+/// flags, rates within the fixture's tolerance.
+#[test]
+fn provisional_three_state_candidate_changes_no_decision_on_independent_curves() {
+    use lumifit::phosphor::decay::fit_decay_full_tolerance;
+    let mut failures = Vec::new();
+    let mut worst = 0.0_f64;
+    let mut n = 0;
+    for (name, opts) in models() {
+        for (id, c) in cases(INDEPENDENT_SEED).iter().enumerate() {
+            let what = format!("curve {id} ({:?}, {name})", c.kind);
+            let fast = fit_decay(&c.curve, &opts).expect("every benchmark curve fits");
+            let full = fit_decay_full_tolerance(&c.curve, &opts).expect("it fits");
+            n += 1;
+            if fast.states.len() != full.states.len() {
+                failures.push(format!(
+                    "{what}: {} states, full tolerance {}",
+                    fast.states.len(),
+                    full.states.len()
+                ));
+                continue;
+            }
+            let names = |f: &lumifit::phosphor::DecayFit| {
+                f.flags.iter().map(|x| x.name()).collect::<Vec<_>>()
+            };
+            if names(&fast) != names(&full) {
+                failures.push(format!(
+                    "{what}: flags {:?}, full tolerance {:?}",
+                    names(&fast),
+                    names(&full)
+                ));
+            }
+            for (a, b) in fast.states.iter().zip(&full.states) {
+                let sd = b.k_sigma_per_s.unwrap_or(0.0);
+                let tol = (RATE_TOL_SIGMA * sd).max(RATE_TOL_REL * b.k_per_s);
+                let d = (a.k_per_s - b.k_per_s).abs();
+                worst = worst.max(d / tol);
+                if d.is_nan() || d > tol {
+                    failures.push(format!(
+                        "{what}: k = {}, full tolerance {} (σ {sd})",
+                        a.k_per_s, b.k_per_s
+                    ));
+                }
+            }
+        }
+    }
+    println!(
+        "{n} fits on seed {INDEPENDENT_SEED}, largest rate difference {worst:.3} of its tolerance"
+    );
+    assert!(
+        failures.is_empty(),
+        "{} of {n} fits differ:\n{}",
+        failures.len(),
         failures.join("\n")
     );
 }

@@ -20,7 +20,7 @@
 // reject NaN along with out-of-range values.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
-use super::nnls::nnls;
+use super::nnls::{nnls_in, NnlsWorkspace};
 use super::qr::Qr;
 pub use super::termination::Termination;
 use super::termination::{cost_converged, cost_stalled, norm, step_converged};
@@ -129,6 +129,7 @@ struct Scratch {
     v: Vec<f64>,
     sub: Vec<f64>,
     sub_qr: Qr,
+    nnls: NnlsWorkspace,
 }
 
 struct Evaluator<'m, 'd, 'w, M: SeparableModel> {
@@ -220,9 +221,11 @@ impl<M: SeparableModel> Evaluator<'_, '_, '_, M> {
                 pt.passive.extend(std::iter::repeat_n(true, n));
                 pt.all_passive.push(true);
             } else {
-                let s = nnls(&pt.basis, m, n, y, self.free);
-                pt.coeffs.extend_from_slice(&s.x);
-                pt.passive.extend_from_slice(&s.passive);
+                // the unconstrained solution was just found infeasible (or m < n): straight to
+                // Lawson–Hanson, in reused buffers (the same arithmetic as `nnls`)
+                nnls_in(&pt.basis, m, n, y, self.free, false, &mut sc.nnls);
+                pt.coeffs.extend_from_slice(&sc.nnls.x);
+                pt.passive.extend_from_slice(&sc.nnls.passive);
                 pt.all_passive.push(false);
             }
             let c = &pt.coeffs[r * n..(r + 1) * n];

@@ -50,7 +50,7 @@ mod types;
 mod uncertainty;
 
 pub use reradiation::{band_spectrum, reradiation_functions, reradiation_functions_rgb};
-pub use select::fit_decay;
+pub use select::{fit_decay, fit_decay_full_tolerance};
 pub use types::*;
 
 #[allow(unused_imports)]
