@@ -124,3 +124,78 @@ fn a_clean_lamp_with_the_camera_known_still_keeps_the_offset_only_model() {
     assert!(e400 < CLEAN_TOL_NM && e700 < CLEAN_TOL_NM, "{e400} {e700}");
     assert_eq!(cal.background.unwrap().model, "linear");
 }
+
+#[test]
+fn lvf_calibrate_with_camera_reports_the_shared_spectrum_in_lvf_json() {
+    let Some(_) = database() else { return };
+    let db = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/camera/jiang2013_camspec_all_cameras_long.csv");
+    let cam = format!("{}:Nikon D700", db.display());
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/tmp-lvf-cfl-shared-cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (img, truth, out) = (
+        dir.join("cfl.tiff"),
+        dir.join("t.json"),
+        dir.join("lvf.json"),
+    );
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_lumifit"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        img.to_str().unwrap(),
+        "--truth",
+        truth.to_str().unwrap(),
+        "--lamp",
+        "cfl",
+        "--nm-at-start",
+        "372.3",
+        "--nm-per-px",
+        "0.3117",
+        "--fwhm",
+        "25",
+        "--camera",
+        &cam,
+        "--noise",
+        "0.01",
+        "--continuum",
+        "0.1",
+        "--continuum-spectrum",
+        "cfl",
+        "--seed",
+        "1",
+    ]);
+    run(&[
+        "lvf",
+        "calibrate",
+        img.to_str().unwrap(),
+        "--axis",
+        "x",
+        "--lamp",
+        "cfl",
+        "--camera",
+        &cam,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let bg = &j["background"];
+    assert!(
+        bg["model"].as_str().unwrap().starts_with("shared-spectrum"),
+        "{}",
+        bg["model"]
+    );
+    let s = bg["shared_spectrum"]["spectrum"].as_array().unwrap();
+    assert!(s.len() > 10 && s.iter().all(|p| p[1].as_f64().unwrap() >= 0.0));
+    assert!(bg["shared_spectrum"]["camera"]
+        .as_str()
+        .unwrap()
+        .ends_with("Nikon D700"));
+    std::fs::remove_dir_all(&dir).ok();
+}
