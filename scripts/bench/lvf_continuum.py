@@ -1,7 +1,7 @@
 """LVF calibration under continuum, vignetting and noise, over cameras of the Jiang database.
 
     cargo build --release
-    python3 scripts/bench/lvf_continuum.py [--seeds 3] [--cases all|quick] [--background auto]
+    python3 scripts/bench/lvf_continuum.py [--seeds 3] [--cases all|quick|11,12,…] [--background auto] [--shared]
 
 Geometry of docs/performance.md / issue 12: 1200x160 px, 372.3 nm + 0.3117 nm/px, Gaussian
 passband FWHM 25 nm. Images from `lumifit synth lvf-hg` (lines integrated over each pixel's span),
@@ -56,6 +56,8 @@ def main():
     ap.add_argument("--cases", default="all")
     ap.add_argument("--cameras", default=",".join(CAMERAS))
     ap.add_argument("--background", default="auto")
+    ap.add_argument("--shared", action="store_true",
+                    help="pass the rendering camera to lvf calibrate (--camera): shared continuum spectrum")
     ap.add_argument("--knots", default=None, help="--continuum-knots of lvf calibrate, e.g. 2.5,1.5")
     a = ap.parse_args()
     cases = CASES if a.cases == "all" else [CASES[int(i)] for i in (QUICK if a.cases == "quick" else a.cases.split(","))]
@@ -78,7 +80,8 @@ def main():
                     t = json.loads(truth.read_text())
                     r = run(["lvf", "calibrate", str(img), "--axis", "x", "--lamp", lamp,
                              "--background", a.background, "--out", str(out),
-                             *(["--continuum-knots", a.knots] if a.knots else [])])
+                             *(["--continuum-knots", a.knots] if a.knots else []),
+                             *(["--camera", f"{DB}:{cam}"] if a.shared else [])])
                     if r.returncode != 0:
                         fails += 1
                         print("  failed:", r.stderr.strip().splitlines()[-1][:200])

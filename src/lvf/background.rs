@@ -41,6 +41,9 @@ pub struct BackgroundTerms {
     pub continuum_intervals: usize,
     /// Degree J of the fall-off polynomial V(u) = 1 + Σ v_j u^j (0: no fall-off).
     pub falloff_degree: usize,
+    /// Intervals of the continuum spectrum shared by the three channels through a known camera
+    /// (0: none; see [`crate::lvf::shared_continuum`]). Exclusive with `continuum_intervals`.
+    pub shared_intervals: usize,
 }
 
 impl BackgroundTerms {
@@ -48,6 +51,7 @@ impl BackgroundTerms {
     pub const LINEAR: BackgroundTerms = BackgroundTerms {
         continuum_intervals: 0,
         falloff_degree: 0,
+        shared_intervals: 0,
     };
 
     /// Number of continuum basis functions per channel.
@@ -59,8 +63,20 @@ impl BackgroundTerms {
         }
     }
 
-    /// Short name for reports: `linear`, `falloff2`, `continuum6`, `continuum6+falloff2`.
+    /// Whether a continuum of either kind (per channel or shared) is fitted.
+    pub fn has_continuum(&self) -> bool {
+        self.continuum_intervals > 0 || self.shared_intervals > 0
+    }
+
+    /// Short name for reports: `linear`, `falloff2`, `continuum6`, `continuum6+falloff2`,
+    /// `shared-spectrum12`.
     pub fn name(&self) -> String {
+        if self.shared_intervals > 0 {
+            return match self.falloff_degree {
+                0 => format!("shared-spectrum{}", self.shared_intervals),
+                f => format!("shared-spectrum{}+falloff{f}", self.shared_intervals),
+            };
+        }
         match (self.continuum_intervals, self.falloff_degree) {
             (0, 0) => "linear".into(),
             (0, f) => format!("falloff{f}"),

@@ -185,6 +185,9 @@ pub struct BackgroundReport {
     pub continuum_intervals: usize,
     /// Its coefficients (≥ 0) per channel.
     pub continuum_coefficients: [Vec<f64>; 3],
+    /// The continuum spectrum shared by the three channels through the camera (`null` unless
+    /// that model was chosen; see [`crate::lvf::shared_continuum`]).
+    pub shared_spectrum: Option<crate::lvf::shared_continuum::SharedSpectrumReport>,
     /// Largest height of offset + continuum above its own minimum over the profile's peak (0
     /// without a continuum; the spline's coefficients alone share a constant with the offset).
     pub continuum_peak_relative: f64,

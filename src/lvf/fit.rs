@@ -31,6 +31,7 @@ use crate::lvf::calibration::{
 };
 use crate::lvf::lamp::Lamp;
 use crate::lvf::profile::Profile;
+use crate::lvf::shared_continuum::{solve_joint, CameraResponse, SharedBasis, SHARED_KNOT_FWHM};
 use crate::math::minimize::brent_min;
 
 /// Passband shape g(Δλ).
@@ -173,6 +174,9 @@ pub struct FitOptions {
     /// the fixed choice). Default
     /// [`CONTINUUM_KNOT_FWHM`].
     pub continuum_knots_fwhm: Vec<f64>,
+    /// The camera's sensitivities, when known: adds continuum candidates whose spectrum is
+    /// shared by the three channels ([`crate::lvf::shared_continuum`]).
+    pub camera: Option<CameraResponse>,
 }
 
 impl Default for FitOptions {
@@ -186,6 +190,7 @@ impl Default for FitOptions {
             background: BackgroundChoice::Auto,
             radial_falloff: true,
             continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
+            camera: None,
         }
     }
 }
@@ -282,6 +287,10 @@ pub(crate) struct Problem<'a> {
     spline: Vec<f64>,
     /// A fixed fall-off at every sample (radial, estimated across the axis), or empty.
     vfix: Vec<f64>,
+    /// The camera and spectrum range of a shared continuum, if one may be used.
+    camera: Option<(&'a CameraResponse, f64, f64)>,
+    /// The shared continuum's basis when `terms.shared_intervals > 0`.
+    shared: Option<SharedBasis>,
 }
 
 /// Evaluation of θ: residuals (channel-major), linear coefficients per channel, SSE.
@@ -290,6 +299,8 @@ pub(crate) struct Eval {
     alpha: [DVector<f64>; 3],
     sse: f64,
     n_active: usize,
+    /// The shared continuum: β and per channel its curve (fall-off included).
+    shared: Option<(Vec<f64>, [Vec<f64>; 3])>,
 }
 
 const N_BG: usize = 2;
@@ -321,6 +332,8 @@ impl<'a> Problem<'a> {
             terms,
             spline,
             vfix,
+            camera: None,
+            shared: None,
         }
     }
 
@@ -348,6 +361,11 @@ impl<'a> Problem<'a> {
             terms,
             spline: Self::spline_rows(&self.u, terms),
             vfix: self.vfix.clone(),
+            camera: self.camera,
+            shared: match (self.camera, terms.shared_intervals) {
+                (Some((cam, lo, hi)), k) if k > 0 => Some(SharedBasis::new(cam, lo, hi, k)),
+                _ => None,
+            },
         }
     }
 
@@ -408,6 +426,9 @@ impl<'a> Problem<'a> {
 
     fn eval_with(&self, theta: &[f64], lines: &[f64]) -> Eval {
         let phi = self.design(theta, lines);
+        if let Some(sb) = &self.shared {
+            return self.eval_shared(theta, &phi, sb);
+        }
         let g = phi.transpose() * &phi;
         let n = self.u.len();
         let mut residual = Vec::with_capacity(3 * n);
@@ -428,6 +449,41 @@ impl<'a> Problem<'a> {
             alpha,
             sse,
             n_active,
+            shared: None,
+        }
+    }
+
+    /// [`Problem::eval_with`] with a continuum shared by the channels: one joint NNLS.
+    fn eval_shared(&self, theta: &[f64], phi: &DMatrix<f64>, sb: &SharedBasis) -> Eval {
+        let v = self.falloff_coefficients(theta);
+        let lams: Vec<f64> = self.u.iter().map(|&u| self.lambda(theta, u)).collect();
+        let scale: Vec<f64> = (0..self.u.len())
+            .map(|i| falloff(v, self.u[i]) * self.vfix.get(i).copied().unwrap_or(1.0))
+            .collect();
+        let cols = sb.columns(&lams, &scale, self.fwhm(theta), self.passband);
+        let (alpha, beta, curve) = solve_joint(phi, self.y, &cols, sb.n(), N_BG);
+        let n = self.u.len();
+        let mut residual = Vec::with_capacity(3 * n);
+        let mut sse = 0.0;
+        for c in 0..3 {
+            let fit = phi * &alpha[c];
+            for i in 0..n {
+                let r = self.y[c][i] - fit[i] - curve[c][i];
+                sse += r * r;
+                residual.push(r);
+            }
+        }
+        let n_active = alpha
+            .iter()
+            .map(|a| a.iter().filter(|v| **v != 0.0).count())
+            .sum::<usize>()
+            + beta.iter().filter(|b| **b != 0.0).count();
+        Eval {
+            residual,
+            alpha,
+            sse,
+            n_active,
+            shared: Some((beta, curve)),
         }
     }
 
@@ -720,7 +776,7 @@ pub fn calibrate_whole_profile(
     };
 
     // Refine on the full profile with the linear offset only.
-    let full = Problem::new(
+    let mut full = Problem::new(
         &profile.px,
         [&profile.values[0], &profile.values[1], &profile.values[2]],
         lines.clone(),
@@ -755,17 +811,39 @@ pub fn calibrate_whole_profile(
     let with_k = |continuum: bool, falloff_degree: usize| BackgroundTerms {
         continuum_intervals: if continuum { k_coarse } else { 0 },
         falloff_degree,
+        shared_intervals: 0,
     };
     let mut auto = vec![with_k(false, 0), with_k(true, 0)];
     for &knot in &knots[1..] {
         let t = BackgroundTerms {
             continuum_intervals: k_of(knot),
             falloff_degree: 0,
+            shared_intervals: 0,
         };
         if !auto.contains(&t) {
             auto.push(t);
         }
     }
+    // A continuum spectrum shared by the channels, when the camera is known: its range is what
+    // the passband sees from the profile's ends (±1.5 FWHM).
+    if let Some(cam) = &opts.camera {
+        let l0 = full.lambda(&plain_best.theta, -1.0);
+        let l1 = full.lambda(&plain_best.theta, 1.0);
+        let reach = 1.5 * fwhm_plain;
+        if let Some((lo, hi)) = SharedBasis::range(cam, l0.min(l1) - reach, l0.max(l1) + reach) {
+            full.camera = Some((cam, lo, hi));
+            for knot in SHARED_KNOT_FWHM {
+                let t = BackgroundTerms {
+                    shared_intervals: SharedBasis::intervals_for(lo, hi, knot * fwhm_plain),
+                    ..BackgroundTerms::LINEAR
+                };
+                if !auto.contains(&t) {
+                    auto.push(t);
+                }
+            }
+        }
+    }
+    let full = full;
     let (candidates, selection_rule) = match opts.background {
         BackgroundChoice::Auto => (auto, "bic"),
         BackgroundChoice::Fixed {
@@ -778,7 +856,7 @@ pub fn calibrate_whole_profile(
         .map(|&terms| {
             let pr = full.with(2, terms);
             let mut best = pr.levenberg_marquardt(&pr.theta_from(&full, &plain_best.theta));
-            if terms.n_continuum() > 0 {
+            if terms.has_continuum() {
                 if let Some(second) = plain.get(1) {
                     let f = pr.levenberg_marquardt(&pr.theta_from(&full, &second.theta));
                     if f.eval.sse < best.eval.sse {
@@ -1002,9 +1080,12 @@ pub fn calibrate_whole_profile(
             .sum::<f64>()
             * fall[i]
     };
+    let shared_of = |c: usize, i: usize| eval.shared.as_ref().map_or(0.0, |(_, cu)| cu[c][i]);
     let background_curve: [Vec<f64>; 3] = std::array::from_fn(|c| {
         (0..n)
-            .map(|i| eval.alpha[c][0] + eval.alpha[c][1] * pr.u[i] + cont_of(c, i))
+            .map(|i| {
+                eval.alpha[c][0] + eval.alpha[c][1] * pr.u[i] + cont_of(c, i) + shared_of(c, i)
+            })
             .collect()
     });
     let curves = ProfileCurves {
@@ -1028,7 +1109,7 @@ pub fn calibrate_whole_profile(
     // The free offset and the spline (a partition of unity) share the constant, so the spline
     // alone is not meaningful: the continuum's size is that of everything that is not lines
     // (offset + continuum), above its own minimum, when a continuum was fitted.
-    let cont_peak = if nc == 0 {
+    let cont_peak = if !pr.terms.has_continuum() {
         0.0
     } else {
         curves
@@ -1060,7 +1141,7 @@ pub fn calibrate_whole_profile(
     for (cpr, cf, cb) in &others {
         let l4 = lam_of(cpr, &cf.theta, u400);
         let l7 = lam_of(cpr, &cf.theta, u700);
-        let same_family = pr.terms.n_continuum() > 0 && cpr.terms.n_continuum() > 0;
+        let same_family = pr.terms.has_continuum() && cpr.terms.has_continuum();
         if cb - best_bic <= 10.0 || same_family {
             if let Some(l) = l4 {
                 sys[0] = sys[0].max((l - 400.0).abs());
@@ -1093,6 +1174,10 @@ pub fn calibrate_whole_profile(
                 .map(|j| eval.alpha[c][N_BG + lines.len() + j])
                 .collect()
         }),
+        shared_spectrum: match (&pr.shared, &eval.shared, &opts.camera) {
+            (Some(sb), Some((beta, _)), Some(cam)) => Some(sb.report(&cam.source, beta)),
+            _ => None,
+        },
         continuum_peak_relative: cont_peak / peak,
         falloff_degree: pr.terms.falloff_degree,
         falloff_coefficients: vcoef.clone(),

@@ -30,6 +30,7 @@ pub mod geometry;
 pub mod lamp;
 pub mod peaks;
 pub mod profile;
+pub mod shared_continuum;
 pub mod synth;
 pub mod transmission;
 
@@ -40,4 +41,5 @@ pub use geometry::{BandReadings, LvfGeometry};
 pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;
 pub use profile::{extract_profile, Axis, Profile};
+pub use shared_continuum::CameraResponse;
 pub use synth::{render_lvf, LvfSynthSpec, LvfTruth};

@@ -243,6 +243,11 @@ pub mod lvf_continuum {
     /// The same for a CFL under its phosphor continuum: the issue asks 0.3 nm; measured up to
     /// 0.93 nm (NOT met; the per-channel continuum trades with the many weak CFL lines).
     pub const CFL_GRID_BOUND_NM: f64 = 1.2;
+    /// The same CFL with the camera known (`--camera`, continuum shared by the three channels):
+    /// measured 0.17–0.39 nm on seeds 200–202 (per-channel 0.36–0.94; the issue's 0.3 nm is
+    /// still NOT met at 700 nm); this
+    /// bound catches regressions.
+    pub const CFL_SHARED_BOUND_NM: f64 = 0.5;
     /// A listed line absent from the image (436 nm of Hg): the map rests on 405/408 and
     /// 546–579 nm alone and the continuum takes part of the gap (measured 0.40 nm).
     pub const ABSENT_LINE_BOUND_NM: f64 = 0.6;

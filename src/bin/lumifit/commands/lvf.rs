@@ -114,6 +114,11 @@ pub struct CalibrateArgs {
     /// (0.8–10 each; the first is also the one `--background continuum` uses).
     #[arg(long, value_delimiter = ',', default_value = "2.5,1.5")]
     pub continuum_knots: Vec<f64>,
+    /// The camera's sensitivities (CSV wavelength_nm,r,g,b, or DB.csv:NAME of the Jiang
+    /// database): adds a continuum spectrum shared by the three channels to the candidates
+    /// (the image must be linear raw, channels as in the table).
+    #[arg(long)]
+    pub camera: Option<PathBuf>,
 }
 
 /// Background terms of the whole-profile fit.
@@ -177,12 +182,23 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     out.input(&a.image);
     out.inputs(file_of(&a.lamp));
     out.inputs(file_of(&a.passband));
+    out.inputs(a.camera.iter().map(|c| super::synth_lvf::camera_file(c)));
     out.declare("--out", &a.out)?;
     if let Some(p) = &a.plot {
         out.declare("--plot", p)?;
     }
     let lamp = resolve_lamp(&a.lamp)?;
     let passband = resolve_passband(&a.passband)?;
+    let camera = match &a.camera {
+        Some(p) => {
+            let cam = lumifit::io::camera::read_camera(Some(p))?;
+            Some(lumifit::lvf::CameraResponse::from_curves(
+                &cam.curves,
+                &cam.source,
+            )?)
+        }
+        None => None,
+    };
     let (frame, info) = read_frame(&a.image)?;
     let roi = match &a.roi {
         Some(r) => super::parse_rect(r)?,
@@ -222,6 +238,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         },
         radial_falloff: !a.no_radial_falloff,
         continuum_knots_fwhm: a.continuum_knots.clone(),
+        camera,
     };
     let t = std::time::Instant::now();
     let cal = match a.method {

@@ -163,7 +163,7 @@ fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
 }
 
 /// The file of `--camera FILE.csv[:NAME]`.
-fn camera_file(p: &std::path::Path) -> PathBuf {
+pub(crate) fn camera_file(p: &std::path::Path) -> PathBuf {
     if p.is_file() {
         return p.to_path_buf();
     }
