@@ -173,6 +173,10 @@ pub struct FitOptions {
     /// the fixed choice). Default
     /// [`CONTINUUM_KNOT_FWHM`].
     pub continuum_knots_fwhm: Vec<f64>,
+    /// A known fall-off V at each profile position (e.g. from a flat-field photo,
+    /// [`crate::lvf::flat`]) multiplying lines and continuum; replaces the radial estimate.
+    /// Ignored unless it has one value per profile position.
+    pub fixed_falloff: Option<Vec<f64>>,
 }
 
 impl Default for FitOptions {
@@ -186,6 +190,7 @@ impl Default for FitOptions {
             background: BackgroundChoice::Auto,
             radial_falloff: true,
             continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
+            fixed_falloff: None,
         }
     }
 }
@@ -706,7 +711,11 @@ pub fn calibrate_whole_profile(
     }
 
     // Radial fall-off from the strips across the axis (applied when significant).
-    let radial = if opts.radial_falloff {
+    let fixed = opts
+        .fixed_falloff
+        .as_ref()
+        .filter(|v| v.len() == profile.px.len() && v.iter().all(|x| x.is_finite() && *x > 0.0));
+    let radial = if opts.radial_falloff && fixed.is_none() {
         estimate_radial_falloff(profile)
     } else {
         None
@@ -714,8 +723,9 @@ pub fn calibrate_whole_profile(
     let radial_applied = radial
         .as_ref()
         .is_some_and(|r| r.kappa[0].abs() > RADIAL_APPLY_SIGMA * r.kappa_sigma[0]);
-    let vfix = match (&radial, radial_applied) {
-        (Some(r), true) => r.along.clone(),
+    let vfix = match (fixed, &radial, radial_applied) {
+        (Some(v), _, _) => v.clone(),
+        (None, Some(r), true) => r.along.clone(),
         _ => Vec::new(),
     };
 
@@ -1083,6 +1093,13 @@ pub fn calibrate_whole_profile(
         model: pr.terms.name(),
         selection: selection_rule.into(),
         flat_field: None,
+        falloff_source: match (fixed.is_some(), radial_applied, pr.terms.falloff_degree) {
+            (true, _, _) => "given: a fall-off supplied by the caller".into(),
+            (false, true, 0) => "modelled: radial about the image centre, estimated from the ROI's strips across the axis".into(),
+            (false, true, j) => format!("modelled: radial from the strips × fitted polynomial of degree {j} along the axis"),
+            (false, false, 0) => "none".into(),
+            (false, false, j) => format!("modelled: fitted polynomial of degree {j} along the axis"),
+        },
         u_definition: format!("u = (px − {m})/{h}"),
         px_mid: m,
         half_length_px: h,
