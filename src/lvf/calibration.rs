@@ -173,6 +173,9 @@ pub struct BackgroundReport {
     pub selection: String,
     /// The flat-field photo divided out, if any (`null`: none; the fall-off is modelled).
     pub flat_field: Option<String>,
+    /// Which fall-off multiplied lines and continuum: `flat-field FILE (…)`, `modelled: …` or
+    /// `none`.
+    pub falloff_source: String,
     /// The normalised position the coefficients refer to.
     pub u_definition: String,
     /// Centre of the profile (px).

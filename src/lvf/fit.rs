@@ -177,6 +177,10 @@ pub struct FitOptions {
     /// The camera's sensitivities, when known: adds continuum candidates whose spectrum is
     /// shared by the three channels ([`crate::lvf::shared_continuum`]).
     pub camera: Option<CameraResponse>,
+    /// A known fall-off V at each profile position (e.g. from a flat-field photo,
+    /// [`crate::lvf::flat`]) multiplying lines and continuum; replaces the radial estimate.
+    /// Ignored unless it has one value per profile position.
+    pub fixed_falloff: Option<Vec<f64>>,
 }
 
 impl Default for FitOptions {
@@ -191,6 +195,7 @@ impl Default for FitOptions {
             radial_falloff: true,
             continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
             camera: None,
+            fixed_falloff: None,
         }
     }
 }
@@ -762,7 +767,11 @@ pub fn calibrate_whole_profile(
     }
 
     // Radial fall-off from the strips across the axis (applied when significant).
-    let radial = if opts.radial_falloff {
+    let fixed = opts
+        .fixed_falloff
+        .as_ref()
+        .filter(|v| v.len() == profile.px.len() && v.iter().all(|x| x.is_finite() && *x > 0.0));
+    let radial = if opts.radial_falloff && fixed.is_none() {
         estimate_radial_falloff(profile)
     } else {
         None
@@ -770,8 +779,9 @@ pub fn calibrate_whole_profile(
     let radial_applied = radial
         .as_ref()
         .is_some_and(|r| r.kappa[0].abs() > RADIAL_APPLY_SIGMA * r.kappa_sigma[0]);
-    let vfix = match (&radial, radial_applied) {
-        (Some(r), true) => r.along.clone(),
+    let vfix = match (fixed, &radial, radial_applied) {
+        (Some(v), _, _) => v.clone(),
+        (None, Some(r), true) => r.along.clone(),
         _ => Vec::new(),
     };
 
@@ -1164,6 +1174,13 @@ pub fn calibrate_whole_profile(
         model: pr.terms.name(),
         selection: selection_rule.into(),
         flat_field: None,
+        falloff_source: match (fixed.is_some(), radial_applied, pr.terms.falloff_degree) {
+            (true, _, _) => "given: a fall-off supplied by the caller".into(),
+            (false, true, 0) => "modelled: radial about the image centre, estimated from the ROI's strips across the axis".into(),
+            (false, true, j) => format!("modelled: radial from the strips × fitted polynomial of degree {j} along the axis"),
+            (false, false, 0) => "none".into(),
+            (false, false, j) => format!("modelled: fitted polynomial of degree {j} along the axis"),
+        },
         u_definition: format!("u = (px − {m})/{h}"),
         px_mid: m,
         half_length_px: h,

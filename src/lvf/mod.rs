@@ -26,6 +26,8 @@ pub mod background;
 pub mod calibration;
 pub mod capture_synth;
 pub mod fit;
+pub mod flat;
+pub mod flat_synth;
 pub mod geometry;
 pub mod lamp;
 pub mod peaks;

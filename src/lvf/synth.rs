@@ -300,7 +300,7 @@ pub struct LvfTruth {
     pub seed: u64,
 }
 
-fn sensitivity(camera: &MultiSpectrum, c: usize, nm: f64) -> f64 {
+pub(crate) fn sensitivity(camera: &MultiSpectrum, c: usize, nm: f64) -> f64 {
     let wl = camera.wavelengths();
     let v = camera.channel(c);
     let n = wl.len();

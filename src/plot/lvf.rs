@@ -96,9 +96,11 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                 "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak ({}) · {} warning(s){}",
                 b.model,
                 100.0 * b.continuum_peak_relative,
-                if b.radial_falloff_applied {
+                if c.falloff.iter().any(|v| *v != 1.0) {
                     format!(
-                        "radial, V at the ends {:.3} / {:.3}",
+                        "{}, V at the ends {:.3} / {:.3}",
+                        // the source without its explanation in parentheses
+                        b.falloff_source.split(" (").next().unwrap_or("modelled"),
                         c.falloff.first().copied().unwrap_or(1.0),
                         c.falloff.last().copied().unwrap_or(1.0)
                     )

@@ -4,10 +4,13 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
+use lumifit::io::camera::read_camera;
 use lumifit::io::series::read_frame;
 use lumifit::io::sources::{file_of, resolve_lamp, resolve_passband};
 use lumifit::io::Outputs;
 use lumifit::lvf::fit::Direction;
+use lumifit::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
+use lumifit::lvf::synth::ContinuumShape;
 use lumifit::lvf::{
     calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, BackgroundChoice, FitOptions,
     MapChoice,
@@ -114,9 +117,18 @@ pub struct CalibrateArgs {
     /// (0.8–10 each; the first is also the one `--background continuum` uses).
     #[arg(long, value_delimiter = ',', default_value = "2.5,1.5")]
     pub continuum_knots: Vec<f64>,
+    /// Flat-field photo through the LVF (broadband source, same size and framing): its smooth
+    /// fall-off is divided out instead of the one modelled from the lamp photo.
+    #[arg(long)]
+    pub flat: Option<PathBuf>,
+    /// Spectrum of the flat's source (flat, blackbody:K, cfl); with --camera the fall-off along
+    /// the axis is solved too, without only its variation across the axis is used.
+    #[arg(long, requires = "flat")]
+    pub flat_spectrum: Option<String>,
     /// The camera's sensitivities (CSV wavelength_nm,r,g,b, or DB.csv:NAME of the Jiang
     /// database): adds a continuum spectrum shared by the three channels to the candidates
-    /// (the image must be linear raw, channels as in the table).
+    /// (the image must be linear raw, channels as in the table), and is the camera
+    /// --flat-spectrum is seen through.
     #[arg(long)]
     pub camera: Option<PathBuf>,
 }
@@ -182,6 +194,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     out.input(&a.image);
     out.inputs(file_of(&a.lamp));
     out.inputs(file_of(&a.passband));
+    out.inputs(a.flat.clone());
     out.inputs(a.camera.iter().map(|c| super::synth_lvf::camera_file(c)));
     out.declare("--out", &a.out)?;
     if let Some(p) = &a.plot {
@@ -189,14 +202,15 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     }
     let lamp = resolve_lamp(&a.lamp)?;
     let passband = resolve_passband(&a.passband)?;
-    let camera = match &a.camera {
-        Some(p) => {
-            let cam = lumifit::io::camera::read_camera(Some(p))?;
-            Some(lumifit::lvf::CameraResponse::from_curves(
-                &cam.curves,
-                &cam.source,
-            )?)
-        }
+    let camera_table = match &a.camera {
+        Some(p) => Some(read_camera(Some(p))?),
+        None => None,
+    };
+    let camera = match &camera_table {
+        Some(cam) => Some(lumifit::lvf::CameraResponse::from_curves(
+            &cam.curves,
+            &cam.source,
+        )?),
         None => None,
     };
     let (frame, info) = read_frame(&a.image)?;
@@ -215,6 +229,34 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         AxisArg::Y => Axis::Y,
     };
     let profile = extract_profile(&frame, roi, axis)?;
+    let flat = match &a.flat {
+        None => None,
+        Some(path) => {
+            let spectrum = match (&a.flat_spectrum, &camera_table) {
+                (None, _) => None,
+                (Some(_), None) => anyhow::bail!(
+                    "--flat-spectrum needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE.csv:NAME"
+                ),
+                (Some(s), Some(cam)) => Some(FlatSpectrum {
+                    shape: ContinuumShape::parse(s)
+                        .map_err(|e| anyhow::anyhow!("--flat-spectrum: {e}"))?,
+                    camera: cam.curves.clone(),
+                    camera_name: cam.source.clone(),
+                }),
+            };
+            let (flat_frame, flat_info) = read_frame(path)?;
+            for w in &flat_info.warnings {
+                eprintln!("warning: {}: {w}", path.display());
+            }
+            Some(FlatField::new(
+                &flat_frame,
+                frame.source_size(),
+                roi,
+                axis,
+                spectrum,
+            )?)
+        }
+    };
     let opts = FitOptions {
         map: match a.map {
             MapArg::Linear => MapChoice::Linear,
@@ -239,11 +281,16 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         radial_falloff: !a.no_radial_falloff,
         continuum_knots_fwhm: a.continuum_knots.clone(),
         camera,
+        fixed_falloff: None,
     };
     let t = std::time::Instant::now();
-    let cal = match a.method {
-        MethodArg::WholeProfile => calibrate_whole_profile(&profile, &lamp, &opts),
-        MethodArg::Peaks => calibrate_peaks(&profile, &lamp, &opts),
+    let cal = match (a.method, &flat) {
+        (MethodArg::WholeProfile, None) => calibrate_whole_profile(&profile, &lamp, &opts),
+        (MethodArg::WholeProfile, Some(f)) => calibrate_with_flat(&profile, &lamp, &opts, f),
+        (MethodArg::Peaks, None) => calibrate_peaks(&profile, &lamp, &opts),
+        (MethodArg::Peaks, Some(_)) => {
+            anyhow::bail!("--flat works with --method whole-profile only (peak picking has no fall-off model)")
+        }
     }
     .with_context(|| format!("calibrating {}", a.image.display()))?;
     let seconds = t.elapsed().as_secs_f64();
@@ -267,6 +314,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         "sigma_nm_at_700": cal.sigma_nm_at_700,
         "rms_residual_relative": cal.rms_residual_relative,
         "background": cal.background.as_ref().map(|b| b.model.clone()),
+        "falloff": cal.background.as_ref().map(|b| b.falloff_source.clone()),
         "warnings": cal.warnings,
         "fit_seconds": seconds,
     }))?)

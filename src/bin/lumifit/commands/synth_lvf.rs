@@ -120,6 +120,13 @@ pub struct LvfHgArgs {
     /// Spectrum of the continuum: flat, cfl (broad phosphor bands) or blackbody:K.
     #[arg(long, default_value = "flat")]
     pub continuum_spectrum: String,
+    /// Also write a matching flat-field photo (16-bit TIFF): same geometry, camera, vignetting
+    /// and noise, a broadband source of spectrum --flat-spectrum instead of the lamp.
+    #[arg(long)]
+    pub flat_out: Option<PathBuf>,
+    /// Spectrum of the flat's source: flat, cfl or blackbody:K.
+    #[arg(long, default_value = "flat")]
+    pub flat_spectrum: String,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -263,6 +270,9 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
     out.inputs(file_of(&a.lamp));
     out.declare("--out", &a.out)?;
     out.declare("--truth", &a.truth)?;
+    if let Some(f) = &a.flat_out {
+        out.declare("--flat-out", f)?;
+    }
     let (w, h) = parse_size("--size", &a.size)?;
     let (vignetting_shape, vignetting) = VignettingShape::parse(&a.vignetting)?;
     let continuum = if a.continuum > 0.0 {
@@ -297,6 +307,12 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
     let json = serde_json::to_string_pretty(&truth)?;
     out.stage(&a.out, &lumifit::io::image::frame_to_tiff16(&frame)?)?;
     out.stage(&a.truth, json.as_bytes())?;
+    if let Some(f) = &a.flat_out {
+        let shape = ContinuumShape::parse(&a.flat_spectrum)
+            .map_err(|e| anyhow::anyhow!("--flat-spectrum: {e}"))?;
+        let flat = lumifit::lvf::flat_synth::render_lvf_flat(&spec, shape)?;
+        out.stage(f, &lumifit::io::image::frame_to_tiff16(&flat)?)?;
+    }
     out.commit()?;
     emit(&json)
 }
