@@ -7,9 +7,11 @@
 //! - [`acquisition`]: acquisition and colour glue.
 //! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
 //!   comparison, excitation, design reports, synthetic charging images).
+//! - [`light`]: photometric lights (inspect, convert, shade, preset, benchmark, glTF export).
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 
 pub mod acquisition;
 pub mod demo;
+pub mod light;
 pub mod phos;
 pub mod phos_maps;
