@@ -45,6 +45,8 @@ struct Setup {
     cmfs: MultiSpectrum,
     xyz: Basis,
     options: ResampleOptions,
+    /// The command line, for the presets' provenance (reduce and eval only).
+    command: String,
 }
 
 fn setup(c: &Conditions) -> Result<Setup> {
@@ -57,6 +59,7 @@ fn setup(c: &Conditions) -> Result<Setup> {
         zero_anti_stokes: c.zero_anti_stokes,
     };
     Ok(Setup {
+        command: String::new(),
         grid,
         observer: obs.cli_name().to_string(),
         cmfs,
@@ -155,7 +158,6 @@ fn reduce_one(
     ills: &[GridIlluminant],
     illuminant_names: &[String],
     basis_file: Option<PathBuf>,
-    command: &str,
 ) -> Result<ReducedPreset> {
     let (d, bytes) = load_matrix(path)?;
     let op = d.to_operator(&s.grid, s.options);
@@ -188,7 +190,7 @@ fn reduce_one(
         .iter()
         .map(|(p, b)| (p.as_path(), b.as_slice()))
         .collect();
-    let preset = fluorescence_preset(d.name(), section, command, &refs, illuminant_names);
+    let preset = fluorescence_preset(d.name(), section, &s.command, &refs, illuminant_names);
     // Validated as a reader would before it is staged.
     let json = to_json_string(&preset)?;
     Ok(ReducedPreset {
@@ -305,7 +307,10 @@ pub fn run_reduce(job: &ReduceJob, out: &mut Outputs, note: Notes) -> Result<Sum
     if let Some(p) = &job.plot {
         out.declare("--plot", p)?;
     }
-    let s = setup(&job.conditions)?;
+    let s = Setup {
+        command: job.command.clone(),
+        ..setup(&job.conditions)?
+    };
     let basis = basis_from_arg(&job.basis, &s, note)?;
     let reduction = Reduction::from_name(&job.method)?;
     let space = RgbSpace::from_name(&job.rgb)?;
@@ -324,7 +329,6 @@ pub fn run_reduce(job: &ReduceJob, out: &mut Outputs, note: Notes) -> Result<Sum
             &ills,
             &job.illuminants,
             file_of(&job.basis),
-            &job.command,
         )?;
         out.stage(target, r.json.as_bytes())?;
         done.push((m.clone(), r));
@@ -415,22 +419,16 @@ pub fn run_eval(job: &EvalJob, out: &mut Outputs) -> Result<Summary> {
         }
         None => Vec::new(),
     };
-    let s = setup(&job.conditions)?;
+    let s = Setup {
+        command: job.command.clone(),
+        ..setup(&job.conditions)?
+    };
     let methods = methods_from_names(&job.methods, &s)?;
     let ills = load_illuminants(&job.illuminants, &s.xyz)?;
     if let (Some(_), Some(first_method)) = (&job.out_dir, methods.first()) {
         let space = RgbSpace::from_name(&job.rgb)?;
         for (m, target) in matrices.iter().zip(&presets) {
-            let r = reduce_one(
-                m,
-                &s,
-                first_method,
-                &space,
-                &ills,
-                &job.illuminants,
-                None,
-                &job.command,
-            )?;
+            let r = reduce_one(m, &s, first_method, &space, &ills, &job.illuminants, None)?;
             out.stage(target, r.json.as_bytes())?;
         }
     }
