@@ -96,6 +96,19 @@ pub enum Error {
         message: String,
     },
 
+    /// A command-line flag's value is not what the flag takes (the message names what was given
+    /// and what was expected); `source` is the parse error behind it, if any.
+    #[error("{flag}: {message}")]
+    Flag {
+        /// The flag (`--rect`, `--out`, …).
+        flag: String,
+        /// What was given and what was expected.
+        message: String,
+        /// The underlying parse error.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
+    },
+
     /// A preset declares a schema this version does not read.
     #[error("{file}: unsupported schema '{found}'; this lumifit reads {expected}")]
     UnsupportedSchema {
@@ -168,6 +181,15 @@ impl Error {
         Error::InvalidArgument {
             field: field.into(),
             message: message.into(),
+        }
+    }
+
+    /// Shorthand for [`Error::Flag`] without a cause.
+    pub fn flag(flag: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Flag {
+            flag: flag.into(),
+            message: message.into(),
+            source: None,
         }
     }
 

@@ -15,6 +15,7 @@ pub mod captures;
 pub mod eulumdat;
 pub mod exif;
 pub mod filters;
+pub mod flags;
 pub mod hdr_image;
 pub mod ies;
 pub mod image;
@@ -93,6 +94,17 @@ pub fn parse_json<T: serde::de::DeserializeOwned>(bytes: &[u8], source: &str) ->
     let text = crate::table::as_text(bytes, source, "JSON text")?;
     serde_json::from_str(text)
         .map_err(|e| Error::parse(source, e.line(), format!("column {}: {e}", e.column())))
+}
+
+/// `value` as pretty-printed JSON followed by a newline (the form every summary and report file
+/// is written in); `what` names it if serialising fails.
+pub fn pretty_json_line<T: serde::Serialize>(value: &T, what: &str) -> Result<String> {
+    serde_json::to_string_pretty(value)
+        .map(|t| t + "\n")
+        .map_err(|e| crate::error::Error::Numerical {
+            what: what.to_string(),
+            reason: e.to_string(),
+        })
 }
 
 /// Reads and parses a JSON file (or `-` for standard input) into `T` (see [`parse_json`]).

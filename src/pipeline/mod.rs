@@ -7,9 +7,13 @@
 //! - [`acquisition`]: acquisition and colour glue.
 //! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
 //!   comparison, excitation, design reports, synthetic charging images).
+//! - [`fluor`]: fluorescence (reduce, eval, select, sweep: presets, tables, charts).
+//! - [`light`]: photometric lights (inspect, convert, shade, preset, benchmark, glTF export).
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 
 pub mod acquisition;
 pub mod demo;
+pub mod fluor;
+pub mod light;
 pub mod phos;
 pub mod phos_maps;

@@ -74,7 +74,11 @@ pub fn run(a: &ExportArgs) -> Result<()> {
     if a.format == "gltf" {
         // a lumifit.light/1 preset: the photometric light (commands/light.rs)
         if let lumifit::preset::Preset::Light(l) = lumifit::preset::read_preset(&a.preset)? {
-            return super::light::export_preset_gltf(&a.preset, &l, &a.out);
+            let mut out = Outputs::new();
+            let line =
+                lumifit::pipeline::light::export_preset_gltf(&a.preset, &l, &a.out, &mut out)?;
+            out.commit()?;
+            return emit(&line.to_string());
         }
     }
     match a.format.as_str() {
