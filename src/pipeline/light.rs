@@ -519,9 +519,12 @@ pub fn benchmark(
 /// File stems as profile names, made unique with the parent folder's name when two collide
 /// (and with `-2`, `-3`, … when they still do).
 pub fn profile_names(paths: &[PathBuf]) -> Vec<String> {
-    let mut names: Vec<String> = paths.iter().map(|p| stem_or(p, "light")).collect();
+    let stems: Vec<String> = paths.iter().map(|p| stem_or(p, "light")).collect();
+    let mut names = stems.clone();
     for i in 0..names.len() {
-        if names.iter().filter(|n| **n == names[i]).count() > 1 {
+        // Counted on the stems, not on the names being rewritten: every path whose stem is
+        // shared gets its folder, not only the ones before the last.
+        if stems.iter().filter(|n| **n == stems[i]).count() > 1 {
             let parent = paths[i]
                 .parent()
                 .and_then(|d| d.file_name())
