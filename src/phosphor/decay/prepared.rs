@@ -31,8 +31,9 @@ pub(super) struct Prepared<'c> {
     pub(super) n_ch: usize,
     pub(super) m: usize,
     /// Shared spectrum, n ≥ 2 states: one variable-projection solve over the rates
-    /// ([`Projected`]), the alternation only where its optimum is infeasible; `false` keeps the
-    /// alternation for every fit (the reference path).
+    /// ([`Projected`]), the alternation only where its optimum is infeasible. Off by default:
+    /// measured 2.6× slower than the alternation in the default mode (docs/performance.md,
+    /// issue 18 third round); `fit_decay_projected` turns it on.
     pub(super) projected: bool,
 }
 
@@ -51,7 +52,7 @@ impl<'c> Prepared<'c> {
             y: curve.channels.concat(),
             n_ch: curve.channels.len(),
             m: curve.n_rows(),
-            projected: true,
+            projected: false,
         }
     }
 
