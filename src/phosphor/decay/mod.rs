@@ -41,6 +41,7 @@ use crate::fit::{
 
 mod basis;
 mod prepared;
+mod projected;
 mod reradiation;
 mod select;
 mod starts;
@@ -50,13 +51,15 @@ mod types;
 mod uncertainty;
 
 pub use reradiation::{band_spectrum, reradiation_functions, reradiation_functions_rgb};
-pub use select::{fit_decay, fit_decay_full_tolerance};
+pub use select::{fit_decay, fit_decay_full_tolerance, fit_decay_projected};
 pub use types::*;
 
 #[allow(unused_imports)]
 use basis::*;
 #[allow(unused_imports)]
 use prepared::*;
+#[allow(unused_imports)]
+use projected::*;
 #[allow(unused_imports)]
 use select::*;
 #[allow(unused_imports)]

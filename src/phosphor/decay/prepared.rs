@@ -1,5 +1,6 @@
 //! A curve prepared for fitting (time base, weights, stacked channels) and the n-state fit
-//! from one start: the separable fit alternated with the exact spectrum update.
+//! from one start: for the shared spectrum one variable-projection solve ([`Projected`]), or
+//! the separable fit alternated with the exact spectrum update.
 
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
@@ -29,6 +30,11 @@ pub(super) struct Prepared<'c> {
     pub(super) y: Vec<f64>,
     pub(super) n_ch: usize,
     pub(super) m: usize,
+    /// Shared spectrum, n ≥ 2 states: one variable-projection solve over the rates
+    /// ([`Projected`]), the alternation only where its optimum is infeasible. Off by default:
+    /// measured 2.6× slower than the alternation in the default mode (docs/performance.md,
+    /// issue 18 third round); `fit_decay_projected` turns it on.
+    pub(super) projected: bool,
 }
 
 impl<'c> Prepared<'c> {
@@ -46,6 +52,7 @@ impl<'c> Prepared<'c> {
             y: curve.channels.concat(),
             n_ch: curve.channels.len(),
             m: curve.n_rows(),
+            projected: false,
         }
     }
 
@@ -198,7 +205,15 @@ impl<'c> Prepared<'c> {
                 termination: fit.termination,
             };
         }
-        // Shared spectrum: alternate the separable fit of Y s with the update of s.
+        // Shared spectrum: one variable-projection solve over the rates when its optimum is
+        // feasible (a ≥ 0, s ≥ 0) …
+        if self.projected {
+            if let Some(r) = Projected::new(self, n, opts.background, s0).fit(theta0, &opts.solver)
+            {
+                return r;
+            }
+        }
+        // … otherwise alternate the separable fit of Y s with the update of s.
         let mut s = s0.to_vec();
         let mut theta = theta0.to_vec();
         let mut ys = vec![0.0; m];

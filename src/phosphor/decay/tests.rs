@@ -99,3 +99,79 @@ fn fixed_two_state_fit_matches_the_fit_through_the_nested_one_state_seed() {
         assert!((s.k_per_s / k - 1.0).abs() < 1e-8, "{} vs {k}", s.k_per_s);
     }
 }
+
+/// A shared-spectrum curve s_c (Σ_j a_j e^{−k_j t}) + b_c with a deterministic ±0.5 % ripple.
+fn shared_curve(amps: &[f64], rates: &[f64], background: f64) -> DecayCurve {
+    let t: Vec<f64> = (0..41).map(|i| 2.0 * i as f64).collect();
+    let s = [0.9, 0.5, 0.2];
+    let ch = (0..3)
+        .map(|c| {
+            t.iter()
+                .enumerate()
+                .map(|(i, ti)| {
+                    let f: f64 = amps
+                        .iter()
+                        .zip(rates)
+                        .map(|(a, k)| a * (-k * ti).exp())
+                        .sum();
+                    let ripple = 1.0 + 0.005 * ((7 * i + 3 * c) as f64).sin();
+                    s[c] * f * ripple + background * (1.0 + 0.1 * c as f64)
+                })
+                .collect()
+        })
+        .collect();
+    DecayCurve::new(t, ch, None).unwrap()
+}
+
+#[test]
+fn projected_shared_spectrum_fit_reaches_the_alternations_optimum() {
+    for bg in [false, true] {
+        let c = shared_curve(&[2.0, 1.0], &[0.2, 0.03], if bg { 0.05 } else { 0.0 });
+        let opts = DecayFitOptions {
+            background: bg,
+            ..DecayFitOptions::default()
+        };
+        let mut prep = Prepared::new(&c);
+        let s0 = prep.initial_spectrum();
+        let start = [(0.1_f64).ln(), (0.01_f64).ln()];
+        let proj = Projected::new(&prep, 2, bg, &s0)
+            .fit(&start, &opts.solver)
+            .expect("the optimum is feasible");
+        prep.projected = false;
+        let alt = prep.fit_from(2, &start, &opts, &s0);
+        assert!(proj.termination.converged() && alt.termination.converged());
+        for (p, a) in proj.theta.iter().zip(&alt.theta) {
+            assert!((p - a).abs() < 1e-5, "{:?} vs {:?}", proj.theta, alt.theta);
+        }
+        assert!(
+            proj.rss <= alt.rss * (1.0 + 1e-8),
+            "rss {} vs {}",
+            proj.rss,
+            alt.rss
+        );
+        for (p, a) in proj.s.iter().zip(&alt.s) {
+            assert!((p - a).abs() < 1e-5, "{:?} vs {:?}", proj.s, alt.s);
+        }
+        for (p, a) in proj.background.iter().zip(&alt.background) {
+            assert!(
+                (p - a).abs() < 1e-4,
+                "{:?} vs {:?}",
+                proj.background,
+                alt.background
+            );
+        }
+    }
+}
+
+#[test]
+fn projected_fit_declines_an_optimum_with_a_negative_amplitude() {
+    // a rise-and-decay (one negative amplitude) cannot be a non-negative sum of decays
+    let c = shared_curve(&[2.0, -1.5], &[0.03, 0.2], 0.0);
+    let prep = Prepared::new(&c);
+    let s0 = prep.initial_spectrum();
+    let start = [(0.03_f64).ln(), (0.2_f64).ln()];
+    let opts = DecayFitOptions::default();
+    assert!(Projected::new(&prep, 2, false, &s0)
+        .fit(&start, &opts.solver)
+        .is_none());
+}
