@@ -138,7 +138,7 @@ impl FlatField {
             .flatten()
             .cloned()
             .fold(f64::MIN, f64::max);
-        if !(peak >= FLAT_DARK_MIN) {
+        if peak.is_nan() || peak < FLAT_DARK_MIN {
             return Err(Error::invalid(
                 "--flat",
                 format!(

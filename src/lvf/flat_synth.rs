@@ -68,7 +68,7 @@ pub fn render_lvf_flat(spec: &LvfSynthSpec, shape: ContinuumShape) -> Result<Rgb
             }
         }
     }
-    if !(max > 0.0) {
+    if max.is_nan() || max <= 0.0 {
         return Err(Error::invalid(
             "--flat-spectrum",
             "the flat's source is not seen by the camera in the rendered wavelength range",
