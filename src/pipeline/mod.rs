@@ -9,9 +9,11 @@
 //!   comparison, excitation, design reports, synthetic charging images).
 //! - [`fluor`]: fluorescence (reduce, eval, select, sweep: presets, tables, charts).
 //! - [`light`]: photometric lights (inspect, convert, shade, preset, benchmark, glTF export).
+//! - [`afterimage`]: afterimages (curves; synth: frames, preview, curves, preset, figure).
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 
 pub mod acquisition;
+pub mod afterimage;
 pub mod demo;
 pub mod fluor;
 pub mod light;
