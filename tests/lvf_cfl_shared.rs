@@ -7,7 +7,6 @@
 
 use std::path::PathBuf;
 
-use lumifit::io::camera::parse_camera_database;
 use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
 use lumifit::lvf::{
     calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
@@ -17,30 +16,10 @@ use lumifit::spectrum::MultiSpectrum;
 mod common;
 use common::tolerances::lvf_continuum::*;
 
-const CAMERAS: [&str; 3] = ["Canon 5DMarkII", "Nikon D700", "SONY NEX-5N"];
+use common::jiang::{camera, CAMERAS};
 
 fn database() -> Option<Vec<u8>> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/camera/jiang2013_camspec_all_cameras_long.csv");
-    match std::fs::read(&p) {
-        Ok(b) => Some(b),
-        Err(_) => {
-            assert!(
-                std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
-                "LUMIFIT_REQUIRE_DATA=1 but {} is missing",
-                p.display()
-            );
-            eprintln!(
-                "SKIPPED: {} is absent; the shared-continuum checks did not run",
-                p.display()
-            );
-            None
-        }
-    }
-}
-
-fn camera(db: &[u8], name: &str) -> MultiSpectrum {
-    parse_camera_database(db, "jiang2013_camspec_all_cameras_long.csv", name).unwrap()
+    common::jiang::database("the shared-continuum checks")
 }
 
 fn spec(cam: MultiSpectrum, shape: ContinuumShape, vignetting: f64, seed: u64) -> LvfSynthSpec {

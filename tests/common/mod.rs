@@ -3,6 +3,7 @@
 //! Each test crate uses only some of these, hence the `dead_code` allowance.
 #![allow(dead_code)]
 
+pub mod jiang;
 pub mod tolerances;
 
 use std::path::{Path, PathBuf};
