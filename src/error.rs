@@ -164,6 +164,19 @@ pub enum Error {
         input: String,
     },
 
+    /// A step of a command failed: `what` names the step and its input (`FILE: excitation fit`,
+    /// `--plot FILE`) or, without a source, says what was wrong and what was expected; `source`
+    /// is the error behind it. The binary prints `what` and then the source as `caused by:`, as
+    /// it prints any error chain.
+    #[error("{what}")]
+    Context {
+        /// The step and its input, or the whole message.
+        what: String,
+        /// The error behind it.
+        #[source]
+        source: Option<Box<Error>>,
+    },
+
     /// A numerical method could not produce a result (singular matrix, no convergence where
     /// a result is required).
     #[error("numerical failure in {what}: {reason}")]
@@ -189,6 +202,23 @@ impl Error {
         Error::Flag {
             flag: flag.into(),
             message: message.into(),
+            source: None,
+        }
+    }
+
+    /// Wraps `self` in [`Error::Context`] naming the step that failed.
+    pub fn context(self, what: impl Into<String>) -> Self {
+        Error::Context {
+            what: what.into(),
+            source: Some(Box::new(self)),
+        }
+    }
+
+    /// [`Error::Context`] without a source: a message that names the input and what was
+    /// expected, printed as it is.
+    pub fn message(what: impl Into<String>) -> Self {
+        Error::Context {
+            what: what.into(),
             source: None,
         }
     }
@@ -222,5 +252,22 @@ pub fn ensure_finite(what: &str, input: &str, values: &[f64]) -> Result<()> {
             what: what.to_string(),
             input: input.to_string(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn context_prints_its_step_and_keeps_the_error_behind_it_as_source() {
+        let inner = Error::parse("m.json", 3, "expected a number");
+        let e = inner.context("m.json: dispersion.model");
+        assert_eq!(e.to_string(), "m.json: dispersion.model");
+        let source = std::error::Error::source(&e).map(|s| s.to_string());
+        assert_eq!(source.as_deref(), Some("m.json: line 3: expected a number"));
+        let bare = Error::message("m.json: dispersion: missing");
+        assert_eq!(bare.to_string(), "m.json: dispersion: missing");
+        assert!(std::error::Error::source(&bare).is_none());
     }
 }

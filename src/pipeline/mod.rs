@@ -5,11 +5,13 @@
 //! meet here.
 //!
 //! - [`acquisition`]: acquisition and colour glue.
-//! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
-//!   comparison, excitation, design reports, synthetic charging images).
+//! - [`afterimage`]: afterimages (curves; synth: frames, preview, curves, preset, figure).
 //! - [`fluor`]: fluorescence (reduce, eval, select, sweep: presets, tables, charts).
 //! - [`light`]: photometric lights (inspect, convert, shade, preset, benchmark, glTF export).
-//! - [`afterimage`]: afterimages (curves; synth: frames, preview, curves, preset, figure).
+//! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
+//!   comparison, excitation, design reports, synthetic charging images).
+//! - [`phos_excitation`]: excitation rates from charging experiments, design from keyframes,
+//!   synthetic charging data (presets, charts, images).
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 
 pub mod acquisition;
@@ -18,4 +20,5 @@ pub mod demo;
 pub mod fluor;
 pub mod light;
 pub mod phos;
+pub mod phos_excitation;
 pub mod phos_maps;
