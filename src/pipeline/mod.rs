@@ -6,6 +6,8 @@
 //!
 //! - [`acquisition`]: acquisition and colour glue.
 //! - [`afterimage`]: afterimages (curves; synth: frames, preview, curves, preset, figure).
+//! - [`dispersion`]: dispersion (fit n(λ) into a preset; the prism reference and its ΔE00
+//!   table).
 //! - [`fluor`]: fluorescence (reduce, eval, select, sweep: presets, tables, charts).
 //! - [`light`]: photometric lights (inspect, convert, shade, preset, benchmark, glTF export).
 //! - [`phos`]: phosphorescence (Λ camera scaling, decay presets, batch fits, integrator
@@ -17,6 +19,7 @@
 pub mod acquisition;
 pub mod afterimage;
 pub mod demo;
+pub mod dispersion;
 pub mod fluor;
 pub mod light;
 pub mod phos;
