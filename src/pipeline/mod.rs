@@ -15,6 +15,8 @@
 //! - [`phos_excitation`]: excitation rates from charging experiments, design from keyframes,
 //!   synthetic charging data (presets, charts, images).
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
+//! - [`preset_export`]: renderer formats of a material preset (glTF, OpenPBR, MaterialX,
+//!   WGSL/GLSL).
 
 pub mod acquisition;
 pub mod afterimage;
@@ -25,3 +27,4 @@ pub mod light;
 pub mod phos;
 pub mod phos_excitation;
 pub mod phos_maps;
+pub mod preset_export;

@@ -7,16 +7,9 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use lumifit::colorimetry::rgb::RgbSpace;
 use lumifit::io::Outputs;
-use lumifit::preset::export::{
-    material_gltf, materialx_document, openpbr_parameters, Charge, EmissionScale, ExportOptions,
-    GlowOptions, OpenPbrOptions, Scene,
-};
-use lumifit::preset::read_material;
-use lumifit::preset::shader::keyframes::KeyframeTolerance;
-use lumifit::preset::shader::{material_snippets, ShaderLanguage};
-use serde_json::json;
+use lumifit::pipeline::preset_export::{run_export, ExportJob, GlowFlags};
+use lumifit::preset::export::Scene;
 
 use super::emit;
 
@@ -71,235 +64,39 @@ pub struct ExportArgs {
 
 /// Runs the export.
 pub fn run(a: &ExportArgs) -> Result<()> {
-    if a.format == "gltf" {
-        // a lumifit.light/1 preset: the photometric light (commands/light.rs)
-        if let lumifit::preset::Preset::Light(l) = lumifit::preset::read_preset(&a.preset)? {
-            let mut out = Outputs::new();
-            let line =
-                lumifit::pipeline::light::export_preset_gltf(&a.preset, &l, &a.out, &mut out)?;
-            out.commit()?;
-            return emit(&line.to_string());
-        }
+    let mut out = Outputs::new();
+    let report = run_export(&a.config()?, &mut out)?;
+    out.commit()?;
+    if let Some(note) = report.note {
+        eprintln!("{note}");
     }
-    match a.format.as_str() {
-        "wgsl" | "glsl" => snippets(a),
-        "gltf" => gltf(a),
-        _ => openpbr(a),
+    match report.summary {
+        Some(s) => emit(&s),
+        None => Ok(()),
     }
 }
 
-fn numbers(flag: &str, text: &str) -> Result<Vec<f64>> {
-    text.split(',')
-        .map(|s| {
-            s.trim().parse::<f64>().map_err(|_| {
-                lumifit::Error::invalid(
-                    flag,
-                    format!(
-                        "'{}' is not a number; expected comma-separated numbers",
-                        s.trim()
-                    ),
-                )
-                .into()
-            })
+impl ExportArgs {
+    fn config(&self) -> Result<ExportJob> {
+        Ok(ExportJob {
+            preset: self.preset.clone(),
+            format: self.format.parse()?,
+            out: self.out.clone(),
+            scene: if self.scene.is_some() {
+                Scene::Sphere
+            } else {
+                Scene::None
+            },
+            space: self.space.clone(),
+            thickness_m: self.thickness_m,
+            glow: GlowFlags {
+                charge_s: self.charge_s.clone(),
+                charge_irradiance: self.charge_irradiance.clone(),
+                glow_s: self.glow_s,
+                key_tolerance: self.key_tolerance.clone(),
+                nits_per_unit: self.nits_per_unit,
+                peak_luminance: self.peak_luminance,
+            },
         })
-        .collect()
-}
-
-/// The glow options of the flags.
-fn glow_options(a: &ExportArgs) -> Result<GlowOptions> {
-    let charge = match a.charge_s.as_deref().map(str::trim) {
-        None => None,
-        Some("saturated") => Some(Charge::Saturated),
-        Some("full") => Some(Charge::Full),
-        Some(s) => Some(Charge::Seconds(s.parse::<f64>().map_err(|_| {
-            lumifit::Error::invalid(
-                "--charge-s",
-                format!("'{s}'; expected seconds, 'saturated' or 'full'"),
-            )
-        })?)),
-    };
-    let tol = numbers("--key-tolerance", &a.key_tolerance)?;
-    let tolerance = match tol.as_slice() {
-        [rel] => KeyframeTolerance {
-            rel_tol: *rel,
-            abs_tol: KeyframeTolerance::default().abs_tol,
-        },
-        [rel, abs] => KeyframeTolerance {
-            rel_tol: *rel,
-            abs_tol: *abs,
-        },
-        _ => {
-            return Err(lumifit::Error::invalid(
-                "--key-tolerance",
-                format!("{} values; expected REL or REL,ABS", tol.len()),
-            )
-            .into())
-        }
-    };
-    Ok(GlowOptions {
-        charge,
-        irradiance: numbers("--charge-irradiance", &a.charge_irradiance)?,
-        duration_s: a.glow_s,
-        tolerance,
-        scale: match a.peak_luminance {
-            Some(l) => EmissionScale::PeakLuminance(l),
-            None => EmissionScale::NitsPerUnit(a.nits_per_unit.unwrap_or(1.0)),
-        },
-    })
-}
-
-/// `--format gltf`: `.gltf` or `.glb`, and the OpenPBR JSON beside it.
-fn gltf(a: &ExportArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    out.input(&a.preset);
-    let file = a.preset.display().to_string();
-    let stem = a
-        .out
-        .file_stem()
-        .map_or_else(|| "material".into(), |s| s.to_string_lossy().into_owned());
-    if a.out.as_os_str() == "-" {
-        return Err(lumifit::Error::invalid(
-            "--out",
-            "'-' with --format gltf; a glTF is written to a file (its OpenPBR JSON goes beside it); --format openpbr or mtlx can write to standard output",
-        )
-        .into());
     }
-    let openpbr_path = a.out.with_file_name(format!("{stem}.openpbr.json"));
-    out.declare("--out", &a.out)?;
-    out.declare("--out (OpenPBR beside it)", &openpbr_path)?;
-    if !a.space.trim().eq_ignore_ascii_case("srgb") {
-        return Err(lumifit::Error::invalid(
-            "--space",
-            format!(
-                "'{}' with --format gltf; glTF 2.0 colours are linear sRGB (Rec. 709 primaries), so glTF is always written in srgb",
-                a.space
-            ),
-        )
-        .into());
-    }
-    let glow = glow_options(a)?;
-    let preset = read_material(&a.preset)?;
-    let opts = ExportOptions {
-        thickness_m: a.thickness_m,
-        scene: if a.scene.is_some() {
-            Scene::Sphere
-        } else {
-            Scene::None
-        },
-        glow: glow.clone(),
-    };
-    let doc = material_gltf(&preset, &file, &opts)?;
-    let openpbr = openpbr_parameters(
-        &preset,
-        &file,
-        &OpenPbrOptions {
-            space: RgbSpace::srgb()?,
-            glow,
-        },
-    )?;
-    let binary = a
-        .out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
-    if binary {
-        out.stage(&a.out, &doc.to_glb()?)?;
-    } else {
-        out.stage_text(&a.out, &doc.to_gltf()?)?;
-    }
-    out.stage_text(
-        &openpbr_path,
-        &(serde_json::to_string_pretty(&openpbr)? + "\n"),
-    )?;
-    let written: Vec<String> = out
-        .staged_paths()
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
-    out.commit()?;
-    let mut summary = json!({
-        "preset": file,
-        "format": if binary { "glb" } else { "gltf" },
-        "sections": doc.sections,
-        "written": written,
-    });
-    if let Some(g) = &doc.glow {
-        eprintln!(
-            "glow: {} keys over {} s ({} charge), linear interpolation within {}·|exact| + {}·peak (worst {:.3} of that), {:.4} cd/m² at switch-off",
-            g.keys.t_s.len(),
-            g.duration_s,
-            g.charge.describe(),
-            g.tolerance.rel_tol,
-            g.tolerance.abs_tol,
-            g.keys.max_error,
-            g.luminance(g.rgb_at(0.0)),
-        );
-        summary["emission"] =
-            doc.json["asset"]["extras"]["lumifit"]["sections_detail"]["emission"].clone();
-    }
-    emit(&serde_json::to_string_pretty(&summary)?)
-}
-
-/// `--format openpbr|mtlx`.
-fn openpbr(a: &ExportArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    out.input(&a.preset);
-    out.declare("--out", &a.out)?;
-    let file = a.preset.display().to_string();
-    let opts = OpenPbrOptions {
-        space: RgbSpace::from_name(&a.space)?,
-        glow: glow_options(a)?,
-    };
-    let preset = read_material(&a.preset)?;
-    let text = if a.format == "mtlx" {
-        materialx_document(&preset, &file, &opts)?
-    } else {
-        serde_json::to_string_pretty(&openpbr_parameters(&preset, &file, &opts)?)? + "\n"
-    };
-    out.stage_text(&a.out, &text)?;
-    out.commit()?;
-    if a.out.as_os_str() == "-" {
-        return Ok(());
-    }
-    emit(&serde_json::to_string_pretty(&json!({
-        "preset": file,
-        "format": a.format,
-        "written": [a.out.display().to_string()],
-    }))?)
-}
-
-/// `--format wgsl|glsl`: every snippet the preset carries, in one file.
-fn snippets(a: &ExportArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    out.input(&a.preset);
-    out.declare("--out", &a.out)?;
-    let file = a.preset.display().to_string();
-    let space = RgbSpace::from_name(&a.space)?;
-    let language = if a.format == "wgsl" {
-        ShaderLanguage::Wgsl
-    } else {
-        ShaderLanguage::Glsl
-    };
-    let preset = read_material(&a.preset)?;
-    let text = material_snippets(&preset, &file, &space, language)?;
-    out.stage_text(&a.out, &text)?;
-    let to_stdout = a.out.as_os_str() == "-";
-    out.commit()?;
-    if to_stdout {
-        return Ok(());
-    }
-    let sections: Vec<&str> = [
-        preset.phosphorescence.as_ref().map(|_| "phosphorescence"),
-        preset.fluorescence.as_ref().map(|_| "fluorescence"),
-        preset.dispersion.as_ref().map(|_| "dispersion"),
-        preset.afterimage.as_ref().map(|_| "afterimage"),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    emit(&serde_json::to_string_pretty(&json!({
-        "preset": file,
-        "format": a.format,
-        "written": [a.out.display().to_string()],
-        "sections": sections,
-    }))?)
 }
