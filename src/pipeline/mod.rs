@@ -15,6 +15,7 @@
 //! - [`phos_excitation`]: excitation rates from charging experiments, design from keyframes,
 //!   synthetic charging data (presets, charts, images).
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
+//! - [`phos_synth`]: synthetic decay series (frames, manifest, truth, or one curve).
 //! - [`preset_export`]: renderer formats of a material preset (glTF, OpenPBR, MaterialX,
 //!   WGSL/GLSL).
 
@@ -27,4 +28,26 @@ pub mod light;
 pub mod phos;
 pub mod phos_excitation;
 pub mod phos_maps;
+pub mod phos_synth;
 pub mod preset_export;
+
+/// Progress of a long step (decoding frames, rendering frames), for a bar on standard error:
+/// `start(total)` once, `inc()` per item (from any thread), `finish()` when the step is done.
+pub trait Progress: Sync {
+    /// The step starts with `total` items.
+    fn start(&self, total: usize);
+    /// One more item is done.
+    fn inc(&self);
+    /// The step is done.
+    fn finish(&self);
+}
+
+/// No progress display.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoProgress;
+
+impl Progress for NoProgress {
+    fn start(&self, _: usize) {}
+    fn inc(&self) {}
+    fn finish(&self) {}
+}

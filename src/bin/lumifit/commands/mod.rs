@@ -131,6 +131,38 @@ pub fn progress_bar(n: usize, prefix: &'static str, items: &str) -> indicatif::P
     bar
 }
 
+/// A progress bar made when the step starts (`make(total)`), as [`lumifit::pipeline::Progress`].
+pub struct Bar<F> {
+    make: F,
+    bar: std::sync::OnceLock<indicatif::ProgressBar>,
+}
+
+impl<F: Fn(usize) -> indicatif::ProgressBar + Sync> Bar<F> {
+    /// A bar that `make` builds once the total is known.
+    pub fn new(make: F) -> Self {
+        Bar {
+            make,
+            bar: std::sync::OnceLock::new(),
+        }
+    }
+}
+
+impl<F: Fn(usize) -> indicatif::ProgressBar + Sync> lumifit::pipeline::Progress for Bar<F> {
+    fn start(&self, total: usize) {
+        self.bar.get_or_init(|| (self.make)(total));
+    }
+    fn inc(&self) {
+        if let Some(b) = self.bar.get() {
+            b.inc(1);
+        }
+    }
+    fn finish(&self) {
+        if let Some(b) = self.bar.get() {
+            b.finish_and_clear();
+        }
+    }
+}
+
 /// Writes a line to standard output; a closed pipe (`lumifit … | head`) is not an error.
 pub fn emit(text: &str) -> Result<()> {
     use std::io::Write;
