@@ -18,6 +18,7 @@
 //! - [`phos_synth`]: synthetic decay series (frames, manifest, truth, or one curve).
 //! - [`preset_export`]: renderer formats of a material preset (glTF, OpenPBR, MaterialX,
 //!   WGSL/GLSL).
+//! - [`recover`]: spectral recovery from one LVF photo (CSV, summary, chart, reflectance preset).
 
 pub mod acquisition;
 pub mod afterimage;
@@ -30,6 +31,7 @@ pub mod phos_excitation;
 pub mod phos_maps;
 pub mod phos_synth;
 pub mod preset_export;
+pub mod recover;
 
 /// Progress of a long step (decoding frames, rendering frames), for a bar on standard error:
 /// `start(total)` once, `inc()` per item (from any thread), `finish()` when the step is done.

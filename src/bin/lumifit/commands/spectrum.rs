@@ -1,22 +1,12 @@
 //! `lumifit spectrum recover`: the spectrum of the light (or a reflectance factor) from one photo
 //! through the calibrated LVF.
 
-// `!(a > b)` comparisons deliberately reject NaN along with out-of-range values.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
-
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::Result;
 use clap::{ArgGroup, Args, Subcommand};
-use lumifit::fit::regularized::Weight;
 use lumifit::io::Outputs;
-use lumifit::pipeline::acquisition::{
-    parse_recovery_grid, recover_spectrum, recovery_csv, recovery_plot_png, recovery_summary,
-    RecoverInputs,
-};
-use lumifit::preset::phosphor::provenance_of_files;
-use lumifit::preset::{to_json_string, MaterialPreset, Provenance, ReflectanceSection};
-use lumifit::recovery::{Recovered, RecoveryOptions};
+use lumifit::pipeline::recover::{run_recover, RecoverJob};
 
 use super::emit;
 
@@ -108,120 +98,37 @@ pub struct RecoverArgs {
 /// Runs a `spectrum` subcommand.
 pub fn run(cmd: SpectrumCommand) -> Result<()> {
     match cmd {
-        SpectrumCommand::Recover(a) => recover_cmd(&a),
+        SpectrumCommand::Recover(a) => {
+            let mut out = Outputs::new();
+            let text = run_recover(&a.config(), &mut out)?;
+            out.commit()?;
+            emit(&text)
+        }
     }
 }
 
-fn recover_cmd(a: &RecoverArgs) -> Result<()> {
-    let weight = match a.reg.trim().to_ascii_lowercase().as_str() {
-        "gcv" => Weight::Gcv,
-        s => {
-            let v: f64 = s
-                .parse()
-                .map_err(|_| anyhow!("--reg: '{}' is neither 'gcv' nor a number", a.reg))?;
-            if !(v >= 0.0) || !v.is_finite() {
-                bail!("--reg: {v}; expected a finite relative weight ≥ 0");
-            }
-            Weight::Fixed(v)
+impl RecoverArgs {
+    fn config(self) -> RecoverJob {
+        RecoverJob {
+            image: self.image,
+            readings: self.readings,
+            bands: self.bands,
+            camera: self.camera,
+            roi: self.roi,
+            grid: self.grid,
+            reg: self.reg,
+            nonnegative: !self.no_nonneg,
+            dump_system: self.dump_system,
+            illuminant: self.illuminant,
+            white: self.white,
+            white_reflectance: self.white_reflectance,
+            exposure: self.exposure,
+            compare: self.compare,
+            out: self.out,
+            summary: self.summary,
+            plot: self.plot,
+            preset: self.preset,
+            name: self.name,
         }
-    };
-    if !(a.exposure > 0.0) || !a.exposure.is_finite() {
-        bail!("--exposure: {}; expected a finite value > 0", a.exposure);
-    }
-    if a.preset.is_some() && a.illuminant.is_none() && a.white.is_none() {
-        bail!(
-            "--preset writes a reflectance preset, but without --illuminant or --white the \
-             recovered spectrum is the light itself; give the illuminant (--illuminant NAME|CSV) \
-             or a white reference capture (--white FILE) to recover a reflectance factor"
-        );
-    }
-    let inputs = RecoverInputs {
-        image: a.image.clone(),
-        readings: a.readings.clone(),
-        bands: a.bands.clone(),
-        camera: a.camera.clone(),
-        roi: a.roi.as_deref().map(super::parse_rect).transpose()?,
-        grid: a
-            .grid
-            .as_deref()
-            .map(|g| parse_recovery_grid("--grid", g))
-            .transpose()?,
-        illuminant: a.illuminant.clone(),
-        white: a.white.clone(),
-        white_reflectance: a.white_reflectance.clone(),
-        exposure: a.exposure,
-        compare: a.compare.clone(),
-    };
-    let mut out = Outputs::new();
-    out.inputs(inputs.files());
-    out.declare("--out", &a.out)?;
-    for (flag, p) in [
-        ("--dump-system", &a.dump_system),
-        ("--summary", &a.summary),
-        ("--plot", &a.plot),
-        ("--preset", &a.preset),
-    ] {
-        if let Some(p) = p {
-            out.declare(flag, p)?;
-        }
-    }
-    let opts = RecoveryOptions {
-        weight,
-        nonnegative: !a.no_nonneg,
-        ..Default::default()
-    };
-    let outcome = recover_spectrum(&inputs, &opts, a.dump_system.is_some())?;
-    let text = serde_json::to_string_pretty(&recovery_summary(&outcome, &inputs, &a.out))?;
-    out.stage(&a.out, recovery_csv(&outcome.rec).as_bytes())?;
-    if let (Some(p), Some(d)) = (&a.dump_system, &outcome.dump) {
-        out.stage(p, serde_json::to_string(d)?.as_bytes())?;
-    }
-    if let Some(p) = &a.summary {
-        out.stage(p, text.as_bytes())?;
-    }
-    if let Some(p) = &a.plot {
-        out.stage(p, &recovery_plot_png(&outcome)?)?;
-    }
-    if let Some(p) = &a.preset {
-        let name = a.name.clone().unwrap_or_else(|| {
-            a.image
-                .as_ref()
-                .or(a.readings.as_ref())
-                .and_then(|f| f.file_stem())
-                .map_or("recovered".into(), |s| s.to_string_lossy().to_string())
-        });
-        let provenance = provenance_of_files("lumifit spectrum recover", &inputs.files())?
-            .with_fit_quality(serde_json::json!({
-                "regularisation": outcome.rec.lambda,
-                "mode": outcome.mode,
-            }));
-        let preset = reflectance_preset(&outcome.rec, &name, provenance, &outcome.mode);
-        out.stage_text(p, &to_json_string(&preset)?)?;
-    }
-    out.commit()?;
-    emit(&text)
-}
-
-/// The reflectance preset of a recovery: the values on the grid, and beside them (open fields)
-/// σ per wavelength and what was recovered.
-fn reflectance_preset(
-    rec: &Recovered,
-    name: &str,
-    provenance: Provenance,
-    mode: &str,
-) -> MaterialPreset {
-    let mut section = ReflectanceSection::new(rec.wavelength_nm.clone(), rec.value.clone());
-    if rec.std.iter().all(|v| v.is_finite()) {
-        section
-            .extra
-            .insert("std".into(), serde_json::json!(rec.std));
-    }
-    section.extra.insert(
-        "source".into(),
-        serde_json::json!(format!("lumifit spectrum recover ({mode}) through the LVF")),
-    );
-    MaterialPreset {
-        reflectance: Some(section),
-        ..MaterialPreset::new(name, provenance)
     }
 }
