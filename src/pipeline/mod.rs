@@ -19,6 +19,7 @@
 //! - [`preset_export`]: renderer formats of a material preset (glTF, OpenPBR, MaterialX,
 //!   WGSL/GLSL).
 //! - [`recover`]: spectral recovery from one LVF photo (CSV, summary, chart, reflectance preset).
+//! - [`series`]: photo series (per-frame metadata, region curves).
 
 pub mod acquisition;
 pub mod afterimage;
@@ -32,6 +33,7 @@ pub mod phos_maps;
 pub mod phos_synth;
 pub mod preset_export;
 pub mod recover;
+pub mod series;
 
 /// Progress of a long step (decoding frames, rendering frames), for a bar on standard error:
 /// `start(total)` once, `inc()` per item (from any thread), `finish()` when the step is done.

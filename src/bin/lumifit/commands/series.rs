@@ -3,15 +3,12 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
-use lumifit::capture::{parse_datetime, Roi};
-use lumifit::io::series::{
-    curve_csv, load_series, read_mask, series_frame_files, LoadedSeries, SeriesOptions,
-};
 use lumifit::io::Outputs;
+use lumifit::pipeline::series::{run_extract, run_inspect, ExtractJob, SeriesSource};
 
-use super::emit;
+use super::{emit, progress_bar, Bar};
 
 /// Subcommands (photo series).
 #[derive(Debug, Subcommand)]
@@ -66,135 +63,33 @@ pub struct ExtractArgs {
 
 /// Runs one of these subcommands.
 pub fn run(cmd: SeriesCommand) -> Result<()> {
+    let bar = Bar::new(|n| progress_bar(n, "decoding", "frames"));
+    let mut warn = |w: String| eprintln!("{w}");
     match cmd {
-        SeriesCommand::Inspect(a) => inspect(&a),
-        SeriesCommand::Extract(a) => extract(&a),
-    }
-}
-
-/// Registers the series' manifest, frames and darks as inputs; returns the number of frames.
-/// The series to read: a folder that holds a `manifest.csv` means that manifest (its times and
-/// exposures), as `synth phos-decay --out DIR` writes it; any other folder is read by EXIF time.
-fn series_path(a: &SeriesArgs) -> PathBuf {
-    let m = a.series.join("manifest.csv");
-    if a.series.is_dir() && m.is_file() {
-        m
-    } else {
-        a.series.clone()
-    }
-}
-
-fn register(a: &SeriesArgs, out: &mut Outputs) -> Result<usize> {
-    let path = series_path(a);
-    let frames = series_frame_files(&path)?;
-    out.input(&path).inputs(&frames).inputs(&a.dark);
-    Ok(frames.len())
-}
-
-fn load(a: &SeriesArgs, n_frames: usize) -> Result<LoadedSeries> {
-    let t0_s = match &a.t0 {
-        None => None,
-        Some(s) => Some(parse_datetime(s).ok_or_else(|| {
-            anyhow::anyhow!("--t0: '{s}' is not a capture time; expected YYYY:MM:DD HH:MM:SS[.sss]")
-        })?),
-    };
-    let options = SeriesOptions {
-        t0_s,
-        darks: a.dark.clone(),
-    };
-    let bar = super::progress_bar(n_frames, "decoding", "frames");
-    let path = series_path(a);
-    let loaded = load_series(&path, &options, &|| bar.inc(1));
-    bar.finish_and_clear();
-    let loaded = loaded.with_context(|| format!("loading series {}", path.display()))?;
-    for w in &loaded.warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(loaded)
-}
-
-fn inspect(a: &InspectArgs) -> Result<()> {
-    let n = register(&a.series, &mut Outputs::new())?;
-    let loaded = load(&a.series, n)?;
-    let rows: Vec<serde_json::Value> = loaded
-        .series
-        .frames()
-        .iter()
-        .map(|f| {
-            serde_json::json!({
-                "file": f.info.file,
-                "time_s": f.time_s,
-                "exposure_s": f.exposure.exposure_s,
-                "iso": f.exposure.iso,
-                "f_number": f.exposure.f_number,
-                "capture_time": f.info.capture_time,
-                "encoding": f.info.encoding,
-                "size": [f.frame.source_size().0, f.frame.source_size().1],
-                "black_level": f.info.black_level,
-                "white_level": f.info.white_level,
-                "white_level_measured": f.info.white_level_measured,
-                "saturated_fraction": f.frame.saturated_fraction(),
-            })
-        })
-        .collect();
-    if a.json {
-        return emit(&serde_json::to_string_pretty(&rows)?);
-    }
-    let mut out =
-        String::from("file\ttime_s\texposure_s\tiso\tf_number\tblack\twhite\tsaturated_fraction\n");
-    for f in loaded.series.frames() {
-        let black = f
-            .info
-            .black_level
-            .map(|b| format!("{}", b[0]))
-            .unwrap_or_else(|| "-".into());
-        let white = f
-            .info
-            .white_level
-            .map(|w| format!("{w}"))
-            .unwrap_or_else(|| "-".into());
-        out.push_str(&format!(
-            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.6}\n",
-            f.info.file,
-            f.time_s,
-            f.exposure.exposure_s,
-            f.exposure.iso,
-            f.exposure.f_number,
-            black,
-            white,
-            f.frame.saturated_fraction()
-        ));
-    }
-    emit(out.trim_end())
-}
-
-fn extract(a: &ExtractArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    let n = register(&a.series, &mut out)?;
-    out.inputs(&a.mask);
-    out.declare("--out", &a.out)?;
-    let roi = match (&a.roi, &a.mask) {
-        (Some(r), _) => Some(Roi::parse_rect(r)?),
-        (None, Some(m)) => Some(read_mask(m)?),
-        (None, None) => None,
-    };
-    let loaded = load(&a.series, n)?;
-    let roi = match roi {
-        Some(r) => r,
-        None => {
-            let Some(first) = loaded.series.frames().first() else {
-                anyhow::bail!("{}: no frames", a.series.series.display());
-            };
-            let (w, h) = first.frame.source_size();
-            Roi::Rect { x: 0, y: 0, w, h }
+        SeriesCommand::Inspect(a) => {
+            emit(&run_inspect(&a.series.source(), a.json, &bar, &mut warn)?)
         }
-    };
-    let curve = loaded.series.extract(&roi)?;
-    out.stage(&a.out, curve_csv(&curve).as_bytes())?;
-    out.commit()?;
-    emit(&serde_json::to_string_pretty(&serde_json::json!({
-        "out": a.out.display().to_string(),
-        "frames": curve.len(),
-        "roi": roi.describe(),
-    }))?)
+        SeriesCommand::Extract(a) => {
+            let job = ExtractJob {
+                source: a.series.source(),
+                roi: a.roi,
+                mask: a.mask,
+                out: a.out,
+            };
+            let mut out = Outputs::new();
+            let summary = run_extract(&job, &mut out, &bar, &mut warn)?;
+            out.commit()?;
+            emit(&serde_json::to_string_pretty(&summary)?)
+        }
+    }
+}
+
+impl SeriesArgs {
+    fn source(&self) -> SeriesSource {
+        SeriesSource {
+            series: self.series.clone(),
+            t0: self.t0.clone(),
+            dark: self.dark.clone(),
+        }
+    }
 }
