@@ -6,6 +6,7 @@
 //!
 //! - [`acquisition`]: acquisition and colour glue.
 //! - [`afterimage`]: afterimages (curves; synth: frames, preview, curves, preset, figure).
+//! - [`color`]: colour (XYZ of a spectrum or a table, ΔE, conversions).
 //! - [`dispersion`]: dispersion (fit n(λ) into a preset; the prism reference and its ΔE00
 //!   table).
 //! - [`fluor`]: fluorescence (reduce, eval, select, sweep: presets, tables, charts).
@@ -23,6 +24,7 @@
 
 pub mod acquisition;
 pub mod afterimage;
+pub mod color;
 pub mod demo;
 pub mod dispersion;
 pub mod fluor;

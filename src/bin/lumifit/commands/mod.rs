@@ -183,28 +183,4 @@ pub fn resolve_illuminant(arg: &str) -> Result<Illuminant> {
 }
 
 /// `--roi x,y,w,h` as a rectangle `[x, y, w, h]`.
-pub fn parse_rect(s: &str) -> Result<[usize; 4]> {
-    match lumifit::capture::Roi::parse_rect(s)? {
-        lumifit::capture::Roi::Rect { x, y, w, h } => Ok([x, y, w, h]),
-        _ => anyhow::bail!("--roi: expected a rectangle x,y,w,h"),
-    }
-}
-
-/// Parses `a,b,c` into three finite numbers, naming the flag on error.
-pub fn parse_triplet(flag: &str, s: &str) -> Result<[f64; 3]> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        anyhow::bail!("{flag}: expected three comma-separated numbers like 50,10,-20, got '{s}'");
-    }
-    let mut out = [0.0; 3];
-    for (i, p) in parts.iter().enumerate() {
-        let v: f64 = p
-            .parse()
-            .map_err(|_| anyhow::anyhow!("{flag}: component {} '{p}' is not a number", i + 1))?;
-        if !v.is_finite() {
-            anyhow::bail!("{flag}: component {} must be finite, got '{p}'", i + 1);
-        }
-        out[i] = v;
-    }
-    Ok(out)
-}
+pub use lumifit::io::flags::parse_rect;
