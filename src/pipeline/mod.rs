@@ -15,6 +15,8 @@
 //!   comparison, excitation, design reports, synthetic charging images).
 //! - [`phos_excitation`]: excitation rates from charging experiments, design from keyframes,
 //!   synthetic charging data (presets, charts, images).
+//! - [`phos_fit`]: simulate, fit-decay (curve, ROI, batch, per pixel), merge-maps,
+//!   compare-integrators.
 //! - [`phos_maps`]: per-pixel decay maps at camera resolution (tile store, memory plan, shards).
 //! - [`phos_synth`]: synthetic decay series (frames, manifest, truth, or one curve).
 //! - [`preset_export`]: renderer formats of a material preset (glTF, OpenPBR, MaterialX,
@@ -31,6 +33,7 @@ pub mod fluor;
 pub mod light;
 pub mod phos;
 pub mod phos_excitation;
+pub mod phos_fit;
 pub mod phos_maps;
 pub mod phos_synth;
 pub mod preset_export;

@@ -1,27 +1,18 @@
 //! `lumifit phos …` (phosphorescence): simulate a material under an irradiance history, fit
 //! decay curves (one CSV curve or a batch) into the `phosphorescence` section of a preset.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+use std::sync::OnceLock;
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand, ValueEnum};
-use lumifit::capture::{PhotoSeries, Roi};
-use lumifit::io::phos_formats::{
-    read_band_camera, read_curve, BatchCsv, BatchResultRow, HistoryCsv, SimulationCsv,
-};
-use lumifit::io::series::{load_series, series_files, SeriesOptions};
-use lumifit::io::spectrum_csv::{read_multi_spectrum, read_spectrum};
+use indicatif::{ProgressBar, ProgressStyle};
 use lumifit::io::Outputs;
-use lumifit::phosphor::{
-    self, fit_decay, AmplitudeModel, DecayCurve, DecayFitOptions, Integrator, StatesChoice,
-};
-use lumifit::pipeline::phos as pipe;
-use lumifit::pipeline::phos_maps as pipe_maps;
-use lumifit::plot::phosphor_sim::{simulate_chart_png, SimulateChart};
-use lumifit::preset::phosphor::{decay_fit_preset, decay_flags_text, provenance_of_files};
-use lumifit::preset::to_json_string;
+use lumifit::phosphor::Integrator;
+use lumifit::pipeline::phos_fit::{self as job, FitDecayJob, FitDecayProgress, SimulateJob};
+use lumifit::pipeline::phos_maps::{PerPixelHooks, Plan};
 
-pub use lumifit::preset::phosphor::resolve_material;
+use super::{emit, Bar};
 
 /// Subcommands of `lumifit phos`.
 // Parsed once per run: the size of the fit-decay flags does not matter.
@@ -208,582 +199,135 @@ pub struct FitDecayArgs {
 
 /// Runs a `lumifit phos` subcommand.
 pub fn run(cmd: PhosCommand) -> Result<()> {
-    match cmd {
-        PhosCommand::Simulate(a) => simulate(&a),
-        PhosCommand::FitDecay(a) => fit_decay_cmd(&a),
-        PhosCommand::CompareIntegrators(a) => compare_integrators(&a),
-        PhosCommand::MergeMaps(a) => merge_maps(&a),
-    }
-}
-
-/// Registers `--plot` (when given) as an output.
-fn declare_plot(out: &mut Outputs, plot: &Option<PathBuf>) -> Result<()> {
-    if let Some(p) = plot {
-        out.declare("--plot", p)?;
-    }
-    Ok(())
+    let mut out = Outputs::new();
+    let mut warn = |w: String| eprintln!("{w}");
+    let text = match cmd {
+        PhosCommand::Simulate(a) => job::run_simulate(&a.config(), &mut out, &mut warn)?,
+        PhosCommand::FitDecay(a) => fit_decay(a.config(), &mut out)?,
+        PhosCommand::CompareIntegrators(a) => {
+            job::run_compare_integrators(&a.material, &a.out, &a.plot, &mut out)?
+        }
+        PhosCommand::MergeMaps(a) => job::run_merge_maps(&a.shards, &a.out, &mut out)?,
+    };
+    out.commit()?;
+    emit(&text)
 }
 
 /// A progress bar on standard error with `template` (plain bar when the template is refused).
-pub fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(len);
+pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
     bar.set_style(
-        indicatif::ProgressStyle::with_template(template)
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
 }
 
-fn simulate(a: &SimulateArgs) -> Result<()> {
-    let resolved = resolve_material(&a.material)?;
-    let mut out = Outputs::new();
-    out.inputs(resolved.path())
-        .input(&a.history)
-        .inputs(&a.camera);
-    out.declare("--out", &a.out)?;
-    declare_plot(&mut out, &a.plot)?;
-    let material = resolved.material;
-    let (hist_csv, hist_source) = HistoryCsv::read(&a.history, material.bands.len())?;
-    if let Some(w) = hist_csv.deprecation(&hist_source) {
-        eprintln!("warning: {w}");
-    }
-    let history = hist_csv.to_segments(&hist_source)?;
-    let integrator = match a.integrator {
-        IntegratorArg::Exact => Integrator::Exact,
-        IntegratorArg::Rk4 => Integrator::Rk4,
-        IntegratorArg::Euler => Integrator::Euler,
-    };
-    let camera = match &a.camera {
-        Some(p) => Some(read_band_camera(p, &material.bands)?),
-        None => None,
-    };
-    let input = format!(
-        "{} (--integrator {:?}, --dt {} s)",
-        a.history.display(),
-        a.integrator,
-        a.dt
-    );
-    let (sim, rgb) = pipe::simulate_checked(
-        &material,
-        &history,
-        a.dt,
-        integrator,
-        camera.as_ref(),
-        &input,
-    )?;
-    if let Some(p) = &a.plot {
-        let chart = SimulateChart {
-            material: &material,
-            integrator,
-            dt_s: a.dt,
-            history: &history,
-            sim: &sim,
-            camera_rgb: rgb.as_deref(),
-        };
-        let png = simulate_chart_png(&chart).with_context(|| format!("--plot {}", p.display()))?;
-        out.stage(p, &png)?;
-    }
-    let table = SimulationCsv::new(&material.bands, &sim, rgb.as_deref());
-    out.stage_text(&a.out, &table.to_csv())?;
-    out.commit()?;
-    super::emit(&format!(
-        "wrote {} samples of {} ({} states, {} bands) to {}{}",
-        sim.t_s.len(),
-        material.name,
-        material.states.len(),
-        material.bands.len(),
-        a.out.display(),
-        a.plot
-            .as_ref()
-            .map(|p| format!(" and the plot to {}", p.display()))
-            .unwrap_or_default()
-    ))
-}
-
-fn parse_states(s: &str) -> Result<StatesChoice> {
-    match s.trim() {
-        "auto" => Ok(StatesChoice::Auto {
-            max: phosphor::decay::MAX_STATES,
-        }),
-        "1" => Ok(StatesChoice::Fixed(1)),
-        "2" => Ok(StatesChoice::Fixed(2)),
-        "3" => Ok(StatesChoice::Fixed(3)),
-        other => bail!("--states: '{other}'; expected auto, 1, 2 or 3"),
-    }
-}
-
-fn options(a: &FitDecayArgs) -> Result<DecayFitOptions> {
-    Ok(DecayFitOptions {
-        states: parse_states(&a.states)?,
-        amplitudes: if a.per_channel {
-            AmplitudeModel::PerChannel
-        } else {
-            AmplitudeModel::SharedSpectrum
-        },
-        background: a.background,
-        ..DecayFitOptions::default()
-    })
-}
-
-fn fit_decay_cmd(a: &FitDecayArgs) -> Result<()> {
-    let opts = options(a)?;
-    let charging_given = a.saturated
-        || a.charge_s.is_some()
-        || a.charge_irradiance.is_some()
-        || a.charging.is_some()
-        || a.exposure_s.is_some();
-    if charging_given && (a.per_pixel || a.batch.is_some()) {
-        bail!(
-            "--saturated/--charge-s/--charge-irradiance/--charging/--exposure-s apply to one curve \
-             (a curve CSV or --roi), whose preset records them; not to --batch or --per-pixel"
-        );
-    }
-    if a.per_pixel || a.roi.is_some() || a.series.is_some() {
-        let series = match (&a.series, &a.curve) {
-            (Some(_), Some(_)) => {
-                bail!("give the series either as the argument or with --series, not both")
-            }
-            (Some(s), None) | (None, Some(s)) => s,
-            (None, None) => bail!("no series: give a manifest CSV or a folder of frames"),
-        };
-        if a.batch.is_some() {
-            bail!("--batch cannot be combined with a photo series");
-        }
-        return match (a.per_pixel, &a.roi) {
-            (true, Some(_)) => {
-                bail!("give either --roi (one curve) or --per-pixel (maps), not both")
-            }
-            (true, None) => per_pixel(series, a, &opts),
-            (false, Some(r)) => roi_fit(series, r, a, &opts),
-            (false, None) => bail!("a photo series needs --roi x,y,w,h or --per-pixel"),
-        };
-    }
-    match (&a.curve, &a.batch) {
-        (Some(_), Some(_)) => bail!("give either a curve CSV or --batch, not both"),
-        (None, None) => bail!("nothing to fit: give a curve CSV or --batch FILE.csv"),
-        (None, Some(b)) => batch(b, a, &opts),
-        (Some(c), None) => single(c, a, &opts),
-    }
-}
-
-/// Inputs and outputs of a one-curve fit: `inputs` (the curve, or the series and its frames and
-/// darks), the spectrum and camera; then `--out` and `--plot`.
-fn fit_outputs(inputs: &[PathBuf], a: &FitDecayArgs) -> Result<Outputs> {
-    let mut out = Outputs::new();
-    out.inputs(inputs)
-        .inputs(&a.spectrum)
-        .inputs(&a.camera)
-        .inputs(&a.charging);
-    out.declare("--out", &a.out)?;
-    declare_plot(&mut out, &a.plot)?;
-    Ok(out)
-}
-
-fn single(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
-    let out = fit_outputs(&[path.to_path_buf()], a)?;
-    let curve = read_curve(path)?;
-    fit_and_write(out, path, curve, a, opts, None, None)
-}
-
-fn load_series_with_bar(path: &Path, darks: &[PathBuf]) -> Result<PhotoSeries> {
-    let bar = indicatif::ProgressBar::new_spinner();
+/// A spinner on standard error with `template`.
+fn spinner(template: &str) -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
     bar.set_style(
-        indicatif::ProgressStyle::with_template("decoding {pos} frames {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
-    let options = SeriesOptions {
-        t0_s: None,
-        darks: darks.to_vec(),
-    };
-    let loaded = load_series(path, &options, &|| bar.inc(1));
-    bar.finish_and_clear();
-    let loaded = loaded.with_context(|| format!("loading series {}", path.display()))?;
-    for w in &loaded.warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(loaded.series)
+    bar
 }
 
-fn roi_fit(series_path: &Path, roi: &str, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
-    let mut inputs = series_files(series_path)?;
-    inputs.extend(a.dark.iter().cloned());
-    let out = fit_outputs(&inputs, a)?;
-    let roi = Roi::parse_rect(roi)?;
-    let series = load_series_with_bar(series_path, &a.dark)?;
-    let curve = pipe::roi_curve(&series, &roi, &series_path.display().to_string())?;
-    let exposure = pipe::series_exposure_s(&series);
-    if exposure.is_none() && a.exposure_s.is_none() {
-        eprintln!(
-            "warning: {}: the frames' exposures differ, so the amplitudes are not corrected for \
-             exposure windows; give --exposure-s to correct for one exposure time",
-            series_path.display()
-        );
-    }
-    fit_and_write(
-        out,
-        series_path,
-        curve,
-        a,
-        opts,
-        Some(roi.describe()),
-        exposure,
-    )
-}
-
-fn fit_and_write(
-    mut out: Outputs,
-    path: &Path,
-    curve: DecayCurve,
-    a: &FitDecayArgs,
-    opts: &DecayFitOptions,
-    roi: Option<String>,
-    series_exposure_s: Option<f64>,
-) -> Result<()> {
-    let fit = fit_decay(&curve, opts).with_context(|| format!("{}: decay fit", path.display()))?;
-    let source = path.display().to_string();
-    let sd = a.spectrum.as_ref().map(|p| read_spectrum(p)).transpose()?;
-    let sens = a
-        .camera
-        .as_ref()
-        .map(|p| read_multi_spectrum(p))
-        .transpose()?;
-    let sp_source = a.spectrum.as_ref().map(|p| p.display().to_string());
-    let spectrum = sd.as_ref().map(|sd| pipe::EmissionSpectrum {
-        wavelengths_nm: sd.wavelengths(),
-        values: sd.values(),
-        source: sp_source.as_deref().unwrap_or("--spectrum"),
-        n_bands: a.bands,
+/// `fit-decay` with its bars: a spinner while a series decodes, a bar over the curves of a
+/// batch, and for --per-pixel a decoding spinner, the plan line and a bar over rows of blocks.
+fn fit_decay(job: FitDecayJob, out: &mut Outputs) -> Result<String> {
+    let decode = Bar::new(|_| spinner("decoding {pos} frames {elapsed}"));
+    let curves = Bar::new(|n| {
+        progress_bar(
+            n as u64,
+            "{bar:40} {pos}/{len} curves ({per_sec}, eta {eta})",
+        )
     });
-    let label = a
-        .camera
-        .as_ref()
-        .map_or(pipe::BOX_CAMERA_LABEL.to_string(), |p| {
-            p.display().to_string()
-        });
-    let camera = pipe::RecordingCamera {
-        sensitivities: sens.as_ref(),
-        label: &label,
-    };
-    let mut dp = pipe::decay_preset(&fit, &curve, &source, spectrum, camera)?;
-    let (charging, origin) = pipe::decay_charging_for(path, &charging_flags(a))?;
-    match &origin {
-        pipe::ChargingOrigin::File(f) => eprintln!(
-            "note: charging protocol from {}: {}",
-            f.display(),
-            charging.describe()
-        ),
-        pipe::ChargingOrigin::Unknown => eprintln!(
-            "WARNING: {}: the charging protocol is unknown, so saturation at switch-off (r = 1) \
-             is assumed and Λ may be far too low (a sample charged 90 min under |E| = 1 light \
-             can sit at r = 0.18); give --saturated, --charge-s S [--charge-irradiance E] or \
-             --charging FILE.json. The assumption is recorded in the preset.",
-            path.display()
-        ),
-        pipe::ChargingOrigin::Flags => {}
-    }
-    dp.record.assumption = pipe::charging_assumption(&charging);
-    dp.record.charging = Some(charging);
-    match a.exposure_s.or(series_exposure_s) {
-        Some(0.0) => {}
-        Some(tau) => {
-            let f = pipe::correct_for_exposure(&mut dp, tau)?;
-            if a.exposure_s.is_none() {
-                eprintln!(
-                    "note: amplitudes corrected for the series' exposure of {tau} s (×{f:.4?} per state)"
-                );
-            }
-        }
-        None => {}
-    }
-    if let Some(r) = &roi {
-        dp.record.roi = Some(r.clone());
-        dp.record.series = Some(source.clone());
-        dp.record.units =
-            Some("relative radiance: frame value / (exposure_s * ISO/100 / f_number^2)".into());
-    }
-    let mut files: Vec<&Path> = Vec::new();
-    if path.is_file() {
-        files.push(path);
-    }
-    files.extend(a.spectrum.as_deref());
-    if let pipe::ChargingOrigin::File(f) = &origin {
-        files.push(f);
-    }
-    if a.spectrum.is_some() {
-        files.extend(a.camera.as_deref());
-    }
-    let provenance = provenance_of_files("lumifit phos fit-decay", &files)?.with_fit_quality(
-        serde_json::json!({
-            "rms": fit.rms, "n_states": fit.states.len(), "flags": decay_flags_text(&fit)
-        }),
-    );
-    let name = a.name.clone().unwrap_or_else(|| {
-        path.file_stem()
-            .map_or("material".into(), |s| s.to_string_lossy().to_string())
-    });
-    let preset = decay_fit_preset(&name, provenance, dp.bands, dp.states, &dp.record)?;
-    out.stage_text(&a.out, &to_json_string(&preset)?)?;
-    if let Some(p) = &a.plot {
-        let title = format!("{name}: decay fit, {} state(s)", fit.states.len());
-        out.stage(p, &lumifit::plot::decay_chart_png(&title, &curve, &fit)?)?;
-    }
-    out.commit()?;
-    super::emit(&serde_json::to_string_pretty(&dp.record)?)
-}
-
-fn charging_flags(a: &FitDecayArgs) -> pipe::ChargingFlags {
-    pipe::ChargingFlags {
-        saturated: a.saturated,
-        charge_s: a.charge_s,
-        charge_irradiance: a.charge_irradiance,
-        file: a.charging.clone(),
-    }
-}
-
-fn batch(path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
-    let mut out = Outputs::new();
-    out.input(path);
-    out.declare("--out", &a.out)?;
-    let curves = BatchCsv::read(path)?;
-    let bar = progress_bar(
-        curves.curves.len() as u64,
-        "{bar:40} {pos}/{len} curves ({per_sec}, eta {eta})",
-    );
-    let start = std::time::Instant::now();
-    let rows = pipe::fit_batch(&curves, opts, &path.display().to_string(), &|| bar.inc(1));
-    bar.finish_and_clear();
-    let rows = rows?;
-    let secs = start.elapsed().as_secs_f64();
-    out.stage_text(&a.out, &BatchResultRow::to_csv(&rows))?;
-    out.commit()?;
-    super::emit(&format!(
-        "fitted {} curves in {:.3} s ({:.0} curves/s, {} threads) → {}",
-        rows.len(),
-        secs,
-        rows.len() as f64 / secs.max(1e-9),
-        rayon::current_num_threads(),
-        a.out.display()
-    ))
-}
-
-fn per_pixel_config(a: &FitDecayArgs) -> Result<pipe_maps::PerPixelConfig> {
-    let memory_mib = match a.memory_gb {
-        None => lumifit::limits::memory_budget_mib(),
-        Some(g) if g.is_finite() && g > 0.0 => (g * 1024.0) as u64,
-        Some(g) => bail!("--memory-gb {g}: expected a positive number of GiB"),
-    };
-    Ok(pipe_maps::PerPixelConfig {
-        block: a.block,
-        tile: a.tile,
-        memory_mib,
-        scratch_dir: a.scratch_dir.clone().unwrap_or_else(std::env::temp_dir),
-        shard: a
-            .shard
-            .as_deref()
-            .map(pipe_maps::Shard::parse)
-            .transpose()?,
-        darks: a.dark.clone(),
-        threads: rayon::current_num_threads(),
-    })
-}
-
-fn materials_count(a: &FitDecayArgs) -> Result<Option<lumifit::phosphor::cluster::MaterialCount>> {
-    use lumifit::phosphor::cluster::{MaterialCount, MAX_MATERIALS};
-    let Some(m) = a.materials.as_deref() else {
-        return Ok(None);
-    };
-    if !(a.material_budget.is_finite() && a.material_budget > 0.0) {
-        bail!(
-            "--material-budget {}: expected a positive fraction, e.g. 0.02",
-            a.material_budget
-        );
-    }
-    Ok(Some(match m.trim() {
-        "auto" => MaterialCount::Auto {
-            max: MAX_MATERIALS,
-            budget: a.material_budget,
-        },
-        k => MaterialCount::Fixed(k.parse().ok().filter(|k| *k > 0).ok_or_else(|| {
-            anyhow::anyhow!("--materials '{k}': expected auto or a number of materials ≥ 1")
-        })?),
-    }))
-}
-
-fn per_pixel(series_path: &Path, a: &FitDecayArgs, opts: &DecayFitOptions) -> Result<()> {
-    if a.spectrum.is_some() || a.plot.is_some() {
-        bail!("--spectrum and --plot apply to one curve; with --per-pixel the maps are the output");
-    }
-    let cfg = per_pixel_config(a)?;
-    let count = materials_count(a)?;
-    if count.is_some() && cfg.shard.is_some() {
-        bail!("--materials needs the whole map: run it without --shard");
-    }
-    let mut out = Outputs::new();
-    out.inputs(series_files(series_path)?).inputs(&a.dark);
-    out.declare_dir("--out", &a.out)?;
-    let decode_bar = indicatif::ProgressBar::new_spinner();
-    decode_bar.set_style(
-        indicatif::ProgressStyle::with_template("decoding {pos} frames into tiles {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
-    let fit_bar = progress_bar(
-        0,
-        "fitting [{bar:30}] {pos}/{len} rows of blocks ({per_sec}, eta {eta})",
-    );
-    let planned = |p: &pipe_maps::Plan| {
-        decode_bar.suspend(|| {
-            eprintln!(
-                "per-pixel plan: {}×{} px, {} frames, tiles of {} px ({} tiles, {} here), samples as {:?} in {} ({:.0} MiB), {} frame(s) decoded at once; peak estimate {:.0} MiB of the {} MiB budget",
-                p.frame_size[0], p.frame_size[1], p.frames, p.tile_px, p.tiles,
-                p.tiles_held[1] - p.tiles_held[0], p.encoding, p.storage, p.store_mib,
-                p.frames_in_flight, p.peak_estimate_mib, p.budget_mib
+    let (decode_cell, fit_cell) = (OnceLock::new(), OnceLock::new());
+    let decode_bar =
+        || decode_cell.get_or_init(|| spinner("decoding {pos} frames into tiles {elapsed}"));
+    let fit_bar = || {
+        fit_cell.get_or_init(|| {
+            progress_bar(
+                0,
+                "fitting [{bar:30}] {pos}/{len} rows of blocks ({per_sec}, eta {eta})",
             )
-        });
-        fit_bar.set_length(p.fit_units);
+        })
     };
-    let hooks = pipe_maps::PerPixelHooks {
+    let planned = |p: &Plan| {
+        decode_bar().suspend(|| eprintln!("{}", job::plan_line(p)));
+        fit_bar().set_length(p.fit_units);
+    };
+    let hooks = PerPixelHooks {
         planned: &planned,
-        decoded: &|| decode_bar.inc(1),
+        decoded: &|| decode_bar().inc(1),
         fitted: &|| {
-            if fit_bar.position() == 0 && !decode_bar.is_finished() {
-                decode_bar.finish_and_clear();
+            if fit_bar().position() == 0 && !decode_bar().is_finished() {
+                decode_bar().finish_and_clear();
             }
-            fit_bar.inc(1)
+            fit_bar().inc(1)
         },
     };
-    let run = pipe_maps::fit_per_pixel(series_path, opts, &cfg, &hooks);
-    decode_bar.finish_and_clear();
-    fit_bar.finish_and_clear();
-    let run = run.with_context(|| format!("{}: per-pixel fit", series_path.display()))?;
-    for w in &run.warnings {
-        eprintln!("warning: {w}");
-    }
-    if run.reencoded {
-        eprintln!("note: a frame is not on the 16-bit grid, so the tiles hold f32 samples and every frame was decoded twice");
-    }
-    let series = series_path.display().to_string();
-    let mut names = Vec::new();
-    let mut materials = serde_json::Value::Null;
-    if let Some(count) = count {
-        let name = a.name.clone().unwrap_or_else(|| "scene".into());
-        let (files, report) =
-            pipe_maps::material_files(&run.maps, &run.times.t_s, count, series_path, &name)?;
-        for (name, bytes) in files {
-            out.stage(a.out.join(&name), &bytes)?;
-            names.push(name);
-        }
-        materials = report;
-    }
-    if cfg.shard.is_some() {
-        for (name, bytes) in pipe_maps::shard_files(&run, &series)? {
-            out.stage(a.out.join(&name), &bytes)?;
-            names.push(name);
-        }
-    } else {
-        pipe::each_pixel_map_file(&run.maps, &mut |name, bytes| {
-            out.stage(a.out.join(name), &bytes)?;
-            names.push(name.to_string());
-            Ok(())
-        })?;
-        let name = a.name.clone().unwrap_or_else(|| "per-pixel maps".into());
-        let (extras, _) = pipe_maps::map_extras(&run.maps, &name, &[series_path.to_path_buf()])?;
-        for (name, bytes) in extras {
-            out.stage(a.out.join(&name), &bytes)?;
-            names.push(name);
-        }
-    }
-    let blocks = run.maps.width * run.maps.height;
-    let timing = serde_json::json!({
-        "decode_s": run.decode_s,
-        "fit_s": run.fit_s,
-        "blocks_per_s": blocks as f64 / run.fit_s.max(1e-9),
-        "threads": cfg.threads,
-        "peak_rss_mib": pipe_maps::peak_rss_mib(),
-    });
-    let summary = pipe_maps::per_pixel_summary(
-        &series,
-        &run.maps,
-        run.plan.frames,
-        run.plan.frame_size,
-        &names,
-        timing,
-        serde_json::to_value(&run.plan)?,
-    );
-    let mut summary = summary;
-    if !materials.is_null() {
-        summary["materials"] = materials;
-    }
-    let text = serde_json::to_string_pretty(&summary)?;
-    out.stage_text(a.out.join("summary.json"), &text)?;
-    out.commit()?;
-    super::emit(&text)
+    let progress = FitDecayProgress {
+        decode: &decode,
+        curves: &curves,
+        per_pixel: &hooks,
+        per_pixel_done: &|| {
+            decode_bar().finish_and_clear();
+            fit_bar().finish_and_clear();
+        },
+    };
+    Ok(job::run_fit_decay(&job, out, &progress, &mut |w| {
+        eprintln!("{w}")
+    })?)
 }
 
-fn merge_maps(a: &MergeMapsArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    for d in &a.shards {
-        out.input(d.join(pipe_maps::SHARD_MANIFEST))
-            .input(d.join(pipe_maps::SHARD_DATA));
+impl SimulateArgs {
+    fn config(&self) -> SimulateJob {
+        SimulateJob {
+            material: self.material.clone(),
+            history: self.history.clone(),
+            dt: self.dt,
+            integrator: match self.integrator {
+                IntegratorArg::Exact => Integrator::Exact,
+                IntegratorArg::Rk4 => Integrator::Rk4,
+                IntegratorArg::Euler => Integrator::Euler,
+            },
+            camera: self.camera.clone(),
+            out: self.out.clone(),
+            plot: self.plot.clone(),
+        }
     }
-    out.declare_dir("--out", &a.out)?;
-    let merged = pipe_maps::merge_shards(&a.shards)?;
-    let mut names = Vec::new();
-    pipe::each_pixel_map_file(&merged.maps, &mut |name, bytes| {
-        out.stage(a.out.join(name), &bytes)?;
-        names.push(name.to_string());
-        Ok(())
-    })?;
-    let manifests: Vec<PathBuf> = a
-        .shards
-        .iter()
-        .map(|d| d.join(pipe_maps::SHARD_MANIFEST))
-        .collect();
-    let (extras, _) = pipe_maps::map_extras(&merged.maps, "per-pixel maps", &manifests)?;
-    for (name, bytes) in extras {
-        out.stage(a.out.join(&name), &bytes)?;
-        names.push(name);
-    }
-    let m0 = &merged.manifests[0];
-    let timing = serde_json::json!({
-        "shard_seconds": merged.manifests.iter().map(|m| m.seconds).collect::<Vec<_>>(),
-    });
-    let summary = pipe_maps::per_pixel_summary(
-        &m0.series,
-        &merged.maps,
-        m0.frames,
-        m0.frame_size,
-        &names,
-        timing,
-        serde_json::json!({
-            "shards": merged.manifests.len(),
-            "fingerprint": m0.fingerprint,
-            "shard_plans": merged.manifests.iter().map(|m| m.plan.clone()).collect::<Vec<_>>(),
-        }),
-    );
-    let text = serde_json::to_string_pretty(&summary)?;
-    out.stage_text(a.out.join("summary.json"), &text)?;
-    out.commit()?;
-    super::emit(&text)
 }
 
-fn compare_integrators(a: &CompareArgs) -> Result<()> {
-    let resolved = resolve_material(&a.material)?;
-    let mut out = Outputs::new();
-    out.inputs(resolved.path());
-    out.declare("--out", &a.out)?;
-    declare_plot(&mut out, &a.plot)?;
-    let material = resolved.material;
-    let rows = pipe::compare_integrators(&material)?;
-    let csv = pipe::integrators_csv(&rows);
-    out.stage_text(&a.out, &csv)?;
-    if let Some(p) = &a.plot {
-        let title = format!(
-            "{}: max relative emission error vs run time (exact = 0)",
-            material.name
-        );
-        let series = pipe::integrator_chart_series(&rows);
-        out.stage(p, &lumifit::plot::integrator_chart_png(&title, &series)?)?;
+impl FitDecayArgs {
+    fn config(self) -> FitDecayJob {
+        FitDecayJob {
+            curve: self.curve,
+            series: self.series,
+            roi: self.roi,
+            dark: self.dark,
+            batch: self.batch,
+            per_pixel: self.per_pixel,
+            block: self.block,
+            memory_gb: self.memory_gb,
+            tile: self.tile,
+            shard: self.shard,
+            materials: self.materials,
+            material_budget: self.material_budget,
+            scratch_dir: self.scratch_dir,
+            states: self.states,
+            per_channel: self.per_channel,
+            background: self.background,
+            spectrum: self.spectrum,
+            bands: self.bands,
+            camera: self.camera,
+            name: self.name,
+            saturated: self.saturated,
+            charge_s: self.charge_s,
+            charge_irradiance: self.charge_irradiance,
+            exposure_s: self.exposure_s,
+            charging: self.charging,
+            out: self.out,
+            plot: self.plot,
+        }
     }
-    out.commit()?;
-    super::emit(&csv)
 }
