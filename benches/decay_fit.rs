@@ -177,41 +177,53 @@ fn side_by_side() {
         let r: Vec<_> = cases.iter().map(|c| fit_lumifit(c, &opts)).collect();
         rates.push(summarise(name, start.elapsed().as_secs_f64(), &r, &cases));
     }
-    // the same default mode with every candidate fitted to the full tolerance (no provisional
-    // three-state fit): the algorithm before that shortcut, in the same run
+    type Fitter = fn(
+        &DecayCurve,
+        &lumifit::phosphor::DecayFitOptions,
+    ) -> lumifit::Result<lumifit::phosphor::DecayFit>;
+    let row = |name: &str, fit: Fitter, opts: &lumifit::phosphor::DecayFitOptions| {
+        let start = Instant::now();
+        let r: Vec<_> = cases
+            .iter()
+            .map(|c| {
+                let curve = DecayCurve::new(c.t.clone(), c.y.to_vec(), None).ok()?;
+                let f = fit(&curve, opts).ok()?;
+                (f.states.len() == 2).then(|| [f.states[0].k_per_s, f.states[1].k_per_s])
+            })
+            .collect();
+        summarise(name, start.elapsed().as_secs_f64(), &r, &cases)
+    };
+    use lumifit::phosphor::decay::{
+        fit_decay_full_tolerance, fit_decay_joint, fit_decay_projected,
+    };
     let opts = lumifit_opts(AmplitudeModel::SharedSpectrum, auto);
-    let start = Instant::now();
-    let r: Vec<_> = cases
-        .iter()
-        .map(|c| {
-            let curve = DecayCurve::new(c.t.clone(), c.y.to_vec(), None).ok()?;
-            let f = lumifit::phosphor::decay::fit_decay_full_tolerance(&curve, &opts).ok()?;
-            (f.states.len() == 2).then(|| [f.states[0].k_per_s, f.states[1].k_per_s])
-        })
-        .collect();
-    let full_tol = summarise(
-        "  same, every candidate to full tolerance (before)",
-        start.elapsed().as_secs_f64(),
-        &r,
-        &cases,
+    // the default mode with every shared-spectrum fit of n ≥ 2 states by one round of the
+    // alternation and then one joint solve over (θ, a, s, b) (issue 18 fourth round; not the
+    // default because it measured no faster), same run
+    let joint = row(
+        "  same, shared spectrum by one round + joint solve (not default)",
+        fit_decay_joint,
+        &opts,
+    );
+    // the same default mode with every candidate fitted to the full tolerance (no provisional
+    // three-state fit), same run
+    let full_tol = row(
+        "  same, every candidate to full tolerance",
+        fit_decay_full_tolerance,
+        &opts,
     );
     // the same default mode with every shared-spectrum fit of n ≥ 2 states by one
     // variable-projection solve over the rates (issue 18 third round; not the default because
     // it measured slower), same run
-    let start = Instant::now();
-    let r: Vec<_> = cases
-        .iter()
-        .map(|c| {
-            let curve = DecayCurve::new(c.t.clone(), c.y.to_vec(), None).ok()?;
-            let f = lumifit::phosphor::decay::fit_decay_projected(&curve, &opts).ok()?;
-            (f.states.len() == 2).then(|| [f.states[0].k_per_s, f.states[1].k_per_s])
-        })
-        .collect();
-    let projected = summarise(
+    let projected = row(
         "  same, shared spectrum by one projected solve (not default)",
-        start.elapsed().as_secs_f64(),
-        &r,
-        &cases,
+        fit_decay_projected,
+        &opts,
+    );
+    let two_joint = row(
+        "lumifit --states 2, shared spectrum, one round + joint solve (not default)",
+        fit_decay_joint,
+        &lumifit_opts(AmplitudeModel::SharedSpectrum, StatesChoice::Fixed(2)),
     );
     // varpro needs a starting guess: the log-spaced pair lumifit also starts from, and (kinder
     // to varpro) the true rates perturbed by +50 % / −30 %.
@@ -240,11 +252,15 @@ fn side_by_side() {
     println!(
         "default auto mode (shared spectrum): {:.2}x varpro (two states fixed, crude start), \
          {:.2}x lumifit --states 2 (shared spectrum), {:.2}x the same mode with every \
-         candidate to full tolerance, {:.2}x the same mode by one projected solve",
+         candidate to full tolerance, {:.2}x the same mode by one projected solve, {:.2}x the \
+         same mode by one round + joint solve; --states 2 shared: {:.2}x one round + joint \
+         solve",
         rates[3] / varpro,
         rates[3] / rates[1],
         rates[3] / full_tol,
-        rates[3] / projected
+        rates[3] / projected,
+        rates[3] / joint,
+        rates[1] / two_joint
     );
 }
 

@@ -1,6 +1,7 @@
 //! A curve prepared for fitting (time base, weights, stacked channels) and the n-state fit
-//! from one start: for the shared spectrum one variable-projection solve ([`Projected`]), or
-//! the separable fit alternated with the exact spectrum update.
+//! from one start: for the shared spectrum the separable fit alternated with the exact spectrum
+//! update (the default), or, behind doc-hidden entry points, one variable-projection solve
+//! ([`Projected`]) or one round of the alternation and then one joint solve ([`Joint`]).
 
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
@@ -30,11 +31,25 @@ pub(super) struct Prepared<'c> {
     pub(super) y: Vec<f64>,
     pub(super) n_ch: usize,
     pub(super) m: usize,
-    /// Shared spectrum, n ≥ 2 states: one variable-projection solve over the rates
-    /// ([`Projected`]), the alternation only where its optimum is infeasible. Off by default:
-    /// measured 2.6× slower than the alternation in the default mode (docs/performance.md,
-    /// issue 18 third round); `fit_decay_projected` turns it on.
-    pub(super) projected: bool,
+    /// How the shared-spectrum fit of n ≥ 2 states is solved ([`SharedSolve`]).
+    pub(super) shared_solve: SharedSolve,
+}
+
+/// How [`Prepared::fit_from`] solves the shared-spectrum model with n ≥ 2 states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum SharedSolve {
+    /// The separable fit of Y s alternated with the exact update of s until s settles (the
+    /// reference path, and the fall-back of the others).
+    Alternation,
+    /// One round of the alternation, then one joint solve over (θ, a, s, b) ([`Joint`]); the
+    /// alternation continues where that optimum is not interior or not converged. The same
+    /// decisions, but not faster than the alternation in the one measured run
+    /// (docs/performance.md, issue 18 fourth round); `fit_decay_joint` turns it on.
+    Joint,
+    /// One variable-projection solve over the rates ([`Projected`]), the alternation only where
+    /// its optimum is infeasible. Measured 2.6× slower than the alternation
+    /// (docs/performance.md, issue 18 third round); `fit_decay_projected` turns it on.
+    Projected,
 }
 
 impl<'c> Prepared<'c> {
@@ -52,7 +67,7 @@ impl<'c> Prepared<'c> {
             y: curve.channels.concat(),
             n_ch: curve.channels.len(),
             m: curve.n_rows(),
-            projected: false,
+            shared_solve: SharedSolve::Alternation,
         }
     }
 
@@ -207,7 +222,7 @@ impl<'c> Prepared<'c> {
         }
         // Shared spectrum: one variable-projection solve over the rates when its optimum is
         // feasible (a ≥ 0, s ≥ 0) …
-        if self.projected {
+        if self.shared_solve == SharedSolve::Projected {
             if let Some(r) = Projected::new(self, n, opts.background, s0).fit(theta0, &opts.solver)
             {
                 return r;
@@ -302,6 +317,24 @@ impl<'c> Prepared<'c> {
                 termination: fit.termination,
             };
             r.rss = self.rss_of(&r, &ex);
+            // after the first round: one joint solve from its end, when that end is interior
+            if round == 0
+                && self.shared_solve == SharedSolve::Joint
+                && r.a.iter().all(|v| *v > 0.0)
+                && r.s.iter().all(|v| *v > 0.0)
+            {
+                if let Some(j) = Joint::new(self, n, opts.background, &r.s).fit(
+                    &r.theta,
+                    &r.a,
+                    &r.s,
+                    &r.background,
+                    &opts.solver,
+                ) {
+                    if j.rss <= r.rss {
+                        return j;
+                    }
+                }
+            }
             raw = Some(r);
             s = new_s;
             if done {

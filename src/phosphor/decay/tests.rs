@@ -137,7 +137,7 @@ fn projected_shared_spectrum_fit_reaches_the_alternations_optimum() {
         let proj = Projected::new(&prep, 2, bg, &s0)
             .fit(&start, &opts.solver)
             .expect("the optimum is feasible");
-        prep.projected = false;
+        prep.shared_solve = SharedSolve::Alternation;
         let alt = prep.fit_from(2, &start, &opts, &s0);
         assert!(proj.termination.converged() && alt.termination.converged());
         for (p, a) in proj.theta.iter().zip(&alt.theta) {
@@ -174,4 +174,63 @@ fn projected_fit_declines_an_optimum_with_a_negative_amplitude() {
     assert!(Projected::new(&prep, 2, false, &s0)
         .fit(&start, &opts.solver)
         .is_none());
+}
+
+#[test]
+fn joint_shared_spectrum_solve_reaches_the_alternations_optimum() {
+    for bg in [false, true] {
+        let c = shared_curve(&[2.0, 1.0], &[0.2, 0.03], if bg { 0.05 } else { 0.0 });
+        let opts = DecayFitOptions {
+            background: bg,
+            ..DecayFitOptions::default()
+        };
+        let mut prep = Prepared::new(&c);
+        let s0 = prep.initial_spectrum();
+        let start = [(0.1_f64).ln(), (0.01_f64).ln()];
+        prep.shared_solve = SharedSolve::Joint;
+        let joint = prep.fit_from(2, &start, &opts, &s0);
+        prep.shared_solve = SharedSolve::Alternation;
+        let alt = prep.fit_from(2, &start, &opts, &s0);
+        assert!(joint.termination.converged() && alt.termination.converged());
+        for (p, a) in joint.theta.iter().zip(&alt.theta) {
+            assert!((p - a).abs() < 1e-6, "{:?} vs {:?}", joint.theta, alt.theta);
+        }
+        assert!(
+            (joint.rss - alt.rss).abs() <= 1e-9 * alt.rss,
+            "rss {} vs {}",
+            joint.rss,
+            alt.rss
+        );
+        for (p, a) in joint.s.iter().zip(&alt.s) {
+            assert!((p - a).abs() < 1e-6, "{:?} vs {:?}", joint.s, alt.s);
+        }
+        for (p, a) in joint.a.iter().zip(&alt.a) {
+            assert!((p / a - 1.0).abs() < 1e-5, "{:?} vs {:?}", joint.a, alt.a);
+        }
+        for (p, a) in joint.background.iter().zip(&alt.background) {
+            assert!(
+                (p - a).abs() < 1e-5,
+                "{:?} vs {:?}",
+                joint.background,
+                alt.background
+            );
+        }
+    }
+}
+
+#[test]
+fn joint_solve_declines_an_optimum_with_a_negative_amplitude_and_the_alternation_takes_over() {
+    // a rise-and-decay: the joint optimum puts an amplitude on its bound, so the result is the
+    // alternation's (bit for bit)
+    let c = shared_curve(&[2.0, -1.5], &[0.03, 0.2], 0.0);
+    let mut prep = Prepared::new(&c);
+    let s0 = prep.initial_spectrum();
+    let start = [(0.03_f64).ln(), (0.2_f64).ln()];
+    let opts = DecayFitOptions::default();
+    prep.shared_solve = SharedSolve::Joint;
+    let joint = prep.fit_from(2, &start, &opts, &s0);
+    prep.shared_solve = SharedSolve::Alternation;
+    let alt = prep.fit_from(2, &start, &opts, &s0);
+    assert_eq!(joint.theta, alt.theta);
+    assert_eq!(joint.rss, alt.rss);
 }
