@@ -129,7 +129,7 @@ pub fn unclip_profile(profile: &Profile) -> Option<(Profile, ClippingReport)> {
                 let cnt = profile.counts[i] as f64;
                 let p0 = profile.zeros[c][i] as f64 / cnt.max(1.0);
                 let y = profile.values[c][i];
-                if !(0.1..=0.9).contains(&p0) || !(y > 0.0) {
+                if !(0.1..=0.9).contains(&p0) || y.is_nan() || y <= 0.0 {
                     return None;
                 }
                 let z = -normal_quantile(p0);
@@ -145,7 +145,7 @@ pub fn unclip_profile(profile: &Profile) -> Option<(Profile, ClippingReport)> {
         report.sigma_floor[c] = sigma;
         for i in 0..n {
             let y = profile.values[c][i];
-            if !(y < CORRECT_BELOW_SIGMA * sigma) {
+            if y.is_nan() || y >= CORRECT_BELOW_SIGMA * sigma {
                 continue;
             }
             let cnt = profile.counts[i].max(1);
@@ -215,10 +215,7 @@ mod tests {
             strips: Vec::new(),
             frame_size: [n, 400],
         };
-        let raw_bias: f64 = (0..n)
-            .map(|i| profile.values[0][i] - truth[i])
-            .sum::<f64>()
-            / n as f64;
+        let raw_bias: f64 = (0..n).map(|i| profile.values[0][i] - truth[i]).sum::<f64>() / n as f64;
         let (fixed, rep) = unclip_profile(&profile).unwrap();
         let bias: f64 = (0..n).map(|i| fixed.values[0][i] - truth[i]).sum::<f64>() / n as f64;
         assert!((rep.sigma_floor[0] - 0.02).abs() < 0.002, "{rep:?}");
