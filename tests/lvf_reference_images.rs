@@ -47,3 +47,65 @@ fn independent_images_lines_vignetting_continuum_and_noise_are_each_within_0_15_
         );
     }
 }
+
+/// |Δλ| at 400/700 nm of the CFL line list (`--lamp cfl`) on a CIE FL image, with and without
+/// the camera given (`--camera`: the shared continuum).
+fn check_cfl(name: &str, camera: Option<&lumifit::spectrum::MultiSpectrum>) -> Option<[f64; 2]> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/lvf_reference");
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join(format!("{name}.json"))).unwrap()).unwrap();
+    let (frame, _) = read_frame(&dir.join(format!("{name}.png"))).unwrap();
+    let (w, h) = frame.source_size();
+    let profile = extract_profile(&frame, [0, 0, w, h], Axis::X).unwrap();
+    let opts = FitOptions {
+        camera: camera
+            .map(|c| lumifit::lvf::CameraResponse::from_curves(c, "Canon 5DMarkII").unwrap()),
+        ..FitOptions::default()
+    };
+    let cal = match calibrate_whole_profile(&profile, &Lamp::cfl(), &opts) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("{name}: refused: {e}");
+            return None;
+        }
+    };
+    let e = [
+        cal.map.eval(truth["px_at_400"].as_f64().unwrap()) - 400.0,
+        cal.map.eval(truth["px_at_700"].as_f64().unwrap()) - 700.0,
+    ];
+    eprintln!(
+        "{name} (camera {}): Δλ400 {:+.3} Δλ700 {:+.3} nm (σ {:.3}/{:.3}), FWHM {:.2} nm, background {}, warnings {}",
+        camera.is_some(),
+        e[0],
+        e[1],
+        cal.sigma_nm_at_400,
+        cal.sigma_nm_at_700,
+        cal.fwhm_nm,
+        cal.background.as_ref().map_or("-".into(), |b| b.model.clone()),
+        cal.warnings.len()
+    );
+    Some(e)
+}
+
+/// Issue 12's CFL on lamp spectra that no lumifit code made: CIE FL10, FL11 and FL12 (tri-band
+/// fluorescent, `scripts/reference/lvf_images.py`). Known failure: the map is off by 0.5–5.6 nm
+/// at 700 nm, and FL10 (strongest blue Eu²⁺ band) is misidentified by ≈ 100 nm; the phosphor
+/// "lines" of these spectra are multiplets several nm wide and the free per-line amplitudes and
+/// per-channel continuum trade with the map. Run with `--ignored` to measure.
+#[test]
+#[ignore = "known failure (issue 12): the CFL calibration is off by 0.5–5.6 nm on the CIE FL images and misidentifies FL10"]
+fn independent_cfl_images_from_the_cie_fl_tables_are_each_within_1_nm() {
+    use common::tolerances::lvf_continuum::CFL_REFERENCE_TOL_NM;
+    let db = common::jiang::database("the CFL reference images with --camera");
+    let cam = db
+        .as_ref()
+        .map(|d| common::jiang::camera(d, "Canon 5DMarkII"));
+    let mut worst = 0.0f64;
+    for name in ["cfl_fl10", "cfl_fl11", "cfl_fl12", "cfl_fl11_noise"] {
+        for c in [None, cam.as_ref()] {
+            let e = check_cfl(name, c).map_or(f64::INFINITY, |e| e[0].abs().max(e[1].abs()));
+            worst = worst.max(e);
+        }
+    }
+    assert!(worst <= CFL_REFERENCE_TOL_NM, "worst {worst} nm");
+}

@@ -22,6 +22,19 @@ struct, no imaging library), with a truth JSON beside each.
 
 Images: lines.png, vignetting.png (+ quadratic vignetting 0.2), continuum.png (+ flat
 continuum 4 %), both_noise.png (both + 1 % noise).
+
+Compact fluorescent lamps (issue 12), from a published spectrum, not from lumifit's line list:
+the CIE 15:2018 fluorescent illuminants FL10 (5000 K), FL11 (4000 K) and FL12 (3000 K), the
+narrow-band tri-phosphor lamps (Tb3+ green, Eu3+ red, Eu2+ blue phosphors plus the mercury
+lines) that CFLs use, 380-780 nm at 5 nm, read from calib/illuminants/FLn.csv (exported from
+colour-science `SDS_ILLUMINANTS`, see calib/README.md). The tabulated SPD is taken as piecewise
+linear between its 5 nm samples (each sample a triangle of 5 nm half-width, whose first moment
+is the sample's wavelength) and integrated on a 0.1 nm grid, each 0.1 nm element averaged over
+the pixel's span like a line. The table's lines and bands are as CIE gives them: a line's
+position inside its 5 nm interval is only known through the neighbouring samples, so these
+images check the line list to the table's resolution (about 1 nm), not to 0.1 nm. Cases:
+cfl_fl10.png, cfl_fl11.png and cfl_fl12.png (clean), cfl_fl11_noise.png (+ quadratic
+vignetting 0.3, 1 % noise, seed 13).
 """
 
 import argparse
@@ -39,6 +52,7 @@ W, H = 1200, 160
 C0, C1 = 372.3, 0.3117
 FWHM = 25.0
 SIGMA = FWHM / math.sqrt(8 * math.log(2))
+FL = ROOT / "calib" / "illuminants"
 HG = [(404.656, 0.40), (407.783, 0.04), (435.833, 1.00), (546.074, 0.90), (576.960, 0.20), (579.066, 0.22)]
 
 
@@ -80,6 +94,25 @@ def continuum_profile(wl, q):
     lam = C0 + C1 * px
     g = np.exp(-0.5 * ((grid[None, :] - lam[:, None]) / SIGMA) ** 2)
     return np.stack([np.trapezoid(g * qg[None, :, c], grid, axis=1) for c in range(3)], axis=-1)
+
+
+def cfl_profile(wl, q, name):
+    """(W, 3): the CIE FLn table (piecewise linear, 5 nm samples) through passband and camera,
+    each 0.1 nm element averaged over the pixel's span (Gaussian CDF)."""
+    rows = [l for l in (FL / f"{name}.csv").read_text().splitlines() if l and not l.startswith("#")]
+    t = np.array([[float(v) for v in r.split(",")] for r in rows[1:]])
+    step = 0.1
+    grid = np.arange(t[0, 0], t[-1, 0] + 1e-9, step)
+    s = np.interp(grid, t[:, 0], t[:, 1])
+    w = s * step
+    w[0] *= 0.5
+    w[-1] *= 0.5
+    qg = sens(wl, q, grid)
+    px = np.arange(W, dtype=float)
+    edges = C0 + C1 * (np.arange(W + 1, dtype=float) - 0.5)
+    cdf = phi((grid[:, None] - edges[None, :]) / SIGMA)  # (G, W+1)
+    mean_g = SIGMA * math.sqrt(2 * math.pi) * (cdf[:, :-1] - cdf[:, 1:]) / C1  # (G, W)
+    return np.einsum("gw,gc->wc", mean_g, w[:, None] * qg)
 
 
 def vignetting(amount):
@@ -139,6 +172,35 @@ def main():
             "continuum_flat_relative_to_546_blob": 0.04 if with_cont else 0.0,
             "noise_relative_to_peak": noise,
             "seed": 12,
+        }
+        (out / f"{name}.json").write_text(json.dumps(truth, indent=1) + "\n")
+        print(name, (out / f"{name}.png").stat().st_size, "bytes")
+    cfl = {
+        "cfl_fl11": ("FL11", 0.0, 0.0, 0),
+        "cfl_fl11_noise": ("FL11", 0.3, 0.01, 13),
+        "cfl_fl10": ("FL10", 0.0, 0.0, 0),
+        "cfl_fl12": ("FL12", 0.0, 0.0, 0),
+    }
+    for name, (fl, vig, noise, seed) in cfl.items():
+        img = cfl_profile(wl, q, fl)[None, :, :] * vignetting(vig)[:, :, None]
+        img *= 0.8 / img.max()
+        if noise > 0:
+            rng = np.random.Generator(np.random.PCG64(seed))
+            img = img + rng.normal(0.0, noise * img.max(), img.shape)
+        write_png16(out / f"{name}.png", img)
+        truth = {
+            "schema": "lumifit.lvf-reference-truth/1",
+            "generator": "scripts/reference/lvf_images.py (numpy " + np.__version__ + ")",
+            "size": [W, H],
+            "map": {"kind": "linear", "coefficients": [C0, C1]},
+            "fwhm_nm": FWHM,
+            "px_at_400": (400 - C0) / C1,
+            "px_at_700": (700 - C0) / C1,
+            "camera": "Jiang 2013 Canon 5DMarkII",
+            "lamp_spectrum": f"CIE 15:2018 {fl} (calib/illuminants/{fl}.csv, 5 nm, piecewise linear)",
+            "vignetting_quadratic": vig,
+            "noise_relative_to_peak": noise,
+            "seed": seed,
         }
         (out / f"{name}.json").write_text(json.dumps(truth, indent=1) + "\n")
         print(name, (out / f"{name}.png").stat().st_size, "bytes")

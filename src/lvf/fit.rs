@@ -718,6 +718,9 @@ pub fn calibrate_whole_profile(
     lamp: &Lamp,
     opts: &FitOptions,
 ) -> Result<LvfCalibration> {
+    // Black clipping undone first (crate::lvf::censor): a clipped floor is not in the model.
+    let unclipped = crate::lvf::censor::unclip_profile(profile);
+    let profile = unclipped.as_ref().map_or(profile, |(p, _)| p);
     check_signal(profile)?;
     let increasing = opts.direction.is_increasing(profile)?;
     let sign = if increasing { 1.0 } else { -1.0 };
@@ -1242,6 +1245,7 @@ pub fn calibrate_whole_profile(
             "coarse_starts": starts.len(),
             "active_linear_parameters": eval.n_active,
             "rms_residual_nm_unweighted": rms_unweighted,
+            "black_clipping": unclipped.as_ref().map(|(_, r)| r),
         }),
         curves,
     };

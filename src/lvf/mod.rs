@@ -25,6 +25,7 @@
 pub mod background;
 pub mod calibration;
 pub mod capture_synth;
+pub mod censor;
 pub mod fit;
 pub mod flat;
 pub mod flat_synth;

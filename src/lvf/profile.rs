@@ -26,6 +26,9 @@ pub struct Profile {
     pub values: [Vec<f64>; 3],
     /// Number of pixels averaged at each position.
     pub counts: Vec<usize>,
+    /// Per channel, how many of those pixels are exactly 0 (black clipping, undone by
+    /// [`crate::lvf::censor::unclip_profile`]).
+    pub zeros: [Vec<usize>; 3],
     /// Name of the image.
     pub source: String,
     /// The ROI cut across the axis into strips ([`N_STRIPS`]), for the vignetting estimate of
@@ -92,6 +95,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
     let mut px = Vec::new();
     let mut values: [Vec<f64>; 3] = Default::default();
     let mut counts = Vec::new();
+    let mut zeros: [Vec<usize>; 3] = Default::default();
     let n_strips = N_STRIPS.min(across.len() / 2).max(1);
     let strip_of = |k: usize| k * n_strips / across.len();
     let mut strips: Vec<Strip> = (0..n_strips)
@@ -112,6 +116,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
     let mut n_all_saturated = 0;
     for &a in along {
         let mut sum = [0.0; 3];
+        let mut nz = [0usize; 3];
         let mut n = 0;
         let mut ssum = vec![[0.0; 3]; n_strips];
         let mut sn = vec![0usize; n_strips];
@@ -128,6 +133,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
             for c in 0..3 {
                 sum[c] += f64::from(v[c]);
                 ssum[s][c] += f64::from(v[c]);
+                nz[c] += usize::from(v[c] == 0.0);
             }
             n += 1;
             sn[s] += 1;
@@ -139,6 +145,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
         px.push(frame.source_coordinate(a));
         for c in 0..3 {
             values[c].push(sum[c] / n as f64);
+            zeros[c].push(nz[c]);
         }
         counts.push(n);
         for (s, st) in strips.iter_mut().enumerate() {
@@ -168,6 +175,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
         px,
         values,
         counts,
+        zeros,
         source: frame.name.clone(),
         strips,
         frame_size: [sw, sh],

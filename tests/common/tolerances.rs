@@ -244,10 +244,17 @@ pub mod lvf_continuum {
     /// 0.93 nm (NOT met; the per-channel continuum trades with the many weak CFL lines).
     pub const CFL_GRID_BOUND_NM: f64 = 1.2;
     /// The same CFL with the camera known (`--camera`, continuum shared by the three channels):
-    /// measured 0.17–0.39 nm on seeds 200–202 (per-channel 0.36–0.94; the 0.3 nm is
-    /// still NOT met at 700 nm); this
-    /// bound catches regressions.
+    /// measured 0.14–0.31 nm on seeds 200–202 with the black clipping undone (0.17–0.39 before;
+    /// per-channel 0.38–1.00; the 0.3 nm is met on two cameras, 0.308 nm on the Canon);
+    /// this bound catches regressions.
     pub const CFL_SHARED_BOUND_NM: f64 = 0.5;
+    /// The CFL on the independent images made from the CIE FL10/FL11/FL12 tables
+    /// (`fixtures/lvf_reference/cfl_*.png`): the tables are sampled every 5 nm, so a line's place
+    /// inside its interval is known only through its neighbours, to about ±0.5 nm; through the
+    /// lever arm from the 436–612 nm anchors to 700 nm (≈ 1.5×) that is ≈ 0.75 nm. The issue's
+    /// 0.3 nm cannot be judged on these images; 1 nm can. NOT met (known failure, measured
+    /// 1.3–5.6 nm and one misidentification by ≈ 100 nm, docs/performance.md).
+    pub const CFL_REFERENCE_TOL_NM: f64 = 1.0;
     /// A listed line absent from the image (436 nm of Hg): the map rests on 405/408 and
     /// 546–579 nm alone and the continuum takes part of the gap (measured 0.40 nm).
     pub const ABSENT_LINE_BOUND_NM: f64 = 0.6;
