@@ -86,7 +86,8 @@ pub(crate) fn matched_filter(
 }
 
 /// The blobs of a matched-filter `score` worth trying as unlisted lines, best (most
-/// significant) first: above [`MIN_SIGMA`] and [`MIN_RELATIVE`], inside the profile by half a
+/// significant) first: above [`MIN_SIGMA`] and [`MIN_RELATIVE`], the most significant within
+/// ±FWHM/2 (a peak, not the flank of a listed line's residual), inside the profile by half a
 /// FWHM, farther than half a FWHM from every `listed` wavelength and a FWHM from each other.
 pub(crate) fn blobs(score: &[(f64, f64)], lams: &[f64], fwhm: f64, listed: &[f64]) -> Vec<Blob> {
     let lo = lams.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -100,7 +101,14 @@ pub(crate) fn blobs(score: &[(f64, f64)], lams: &[f64], fwhm: f64, listed: &[f64
             break;
         }
         let nm = lams[i];
-        if rel < MIN_RELATIVE
+        // a blob's centre is a peak of the significance within ±FWHM/2, not the flank of a
+        // listed line's residual
+        let is_peak = lams
+            .iter()
+            .zip(score)
+            .all(|(l, sc)| (l - nm).abs() > 0.5 * fwhm || sc.1 <= sig);
+        if !is_peak
+            || rel < MIN_RELATIVE
             || nm < lo + 0.5 * fwhm
             || nm > hi - 0.5 * fwhm
             || listed.iter().any(|l| (l - nm).abs() < 0.5 * fwhm)
