@@ -122,10 +122,9 @@ fn mercury_with_10_percent_continuum_and_0_3_vignetting_beats_the_old_model_on_t
             worst < worst_old,
             "{name}: new {e:?} not better than old {old:?}"
         );
-        if k == 0 {
-            // Canon 5D Mark II, quadratic vignetting + flat continuum: the issue's bound holds
-            assert!(worst <= HG_TOL_NM, "{name}: {e:?}");
-        }
+        // the issue's bound on every camera (with the 1.0 × FWHM continuum for the D700's and
+        // the NEX-5N's steep red edge under the 577/579 nm doublet)
+        assert!(worst <= HG_TOL_NM, "{name}: {e:?}");
     }
 }
 
@@ -170,6 +169,90 @@ fn a_clean_lamp_does_not_pay_for_a_continuum_and_stays_exact() {
     assert!(cal.warnings.is_empty(), "{:?}", cal.warnings);
 }
 
+/// Issue 12, "without continuum and vignetting no worse than today": at 1 % noise the image's
+/// negative noise is clipped at black, which lifted the floor between the blobs by ≈ 0.4 of the
+/// read noise and made BIC choose a continuum that cost 0.003–0.014 nm. With the clipping undone
+/// in the profile (`lvf::censored`) the clean lamp keeps the offset-only model and the old
+/// model's accuracy, on three cameras and two seeds.
+#[test]
+fn a_clean_lamp_at_1_percent_noise_keeps_the_simple_model_despite_black_clipping() {
+    let Some(db) = database() else { return };
+    for name in CAMERAS {
+        for seed in [1, 2] {
+            let s = spec(
+                Lamp::mercury(),
+                camera(&db, name),
+                0.01,
+                (VignettingShape::Quadratic, 0.0),
+                None,
+                seed,
+            );
+            let (cal, e) = calibrate(&s, &Lamp::mercury()).unwrap();
+            let bg = cal.background.as_ref().unwrap();
+            let clip = bg.black_clipping.as_ref().expect("clipped pixels undone");
+            assert!(clip.positions_corrected.iter().sum::<usize>() > 0);
+            assert_eq!(
+                bg.model, "linear",
+                "{name} seed {seed}: {:?}",
+                bg.candidates
+            );
+            assert!(
+                e[0].abs() <= CLEAN_NOISY_TOL_NM && e[1].abs() <= CLEAN_NOISY_TOL_NM,
+                "{name} seed {seed}: {e:?}"
+            );
+        }
+    }
+}
+
+/// A line in the lamp list that the image does not show (a fake 520 nm line, in the dark gap
+/// between 436 and 546 nm, and one at 470 nm): the map is not pulled towards it, and it is
+/// reported absent.
+#[test]
+fn a_listed_line_the_image_does_not_show_does_not_bias_the_map_and_is_reported_absent() {
+    let Some(db) = database() else { return };
+    let mut fit_lamp = Lamp::mercury();
+    for nm in [470.0, 520.0] {
+        fit_lamp.lines.push(LampLine {
+            nm,
+            relative_power: 0.5,
+        });
+    }
+    fit_lamp.lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
+    for (k, name) in CAMERAS.iter().enumerate() {
+        let s = spec(
+            Lamp::mercury(),
+            camera(&db, name),
+            0.01,
+            (VignettingShape::Quadratic, 0.2),
+            Some((ContinuumShape::Flat, 0.04)),
+            30 + k as u64,
+        );
+        let (cal, e) = calibrate(&s, &fit_lamp).unwrap();
+        let (_, e_true) = calibrate(&s, &Lamp::mercury()).unwrap();
+        for nm in ["470 nm", "520 nm"] {
+            assert!(
+                cal.warnings
+                    .iter()
+                    .any(|w| w.contains(&format!("lamp line {nm}")) && w.contains("absent")),
+                "{name}: {nm} not reported absent: {:?}",
+                cal.warnings
+            );
+        }
+        assert!(
+            e[0].abs() <= HG_TOL_NM && e[1].abs() <= HG_TOL_NM,
+            "{name}: {e:?}"
+        );
+        // no further from the fit with the right list than the fit's own reported σ
+        let sig = [cal.sigma_nm_at_400, cal.sigma_nm_at_700];
+        for i in 0..2 {
+            assert!(
+                (e[i] - e_true[i]).abs() <= sig[i],
+                "{name}: {e:?} against {e_true:?} with the right list (σ {sig:?})"
+            );
+        }
+    }
+}
+
 #[test]
 fn weak_violet_mercury_lines_still_calibrate_within_the_grid_bound() {
     let Some(db) = database() else { return };
@@ -189,11 +272,13 @@ fn weak_violet_mercury_lines_still_calibrate_within_the_grid_bound() {
 }
 
 /// KNOWN FAILURE (issue 12 not met here): an unlisted line at 490 nm of half the power of the
-/// 436 nm line drags the map by 2–3 nm; the result is flagged ("residual structure 59× the
-/// noise", σ 11 nm) but the line itself is not reported, because with the wrong map no blob
-/// above 4 % of the peak is left in the residual. Run with `--ignored` to see it.
+/// 436 nm line. The residual search (`lvf::extra_lines`) now fits a free extra line and reports
+/// it, but on the Canon 5D Mark II (seed 3) it lands at 530 nm, not 490: the fit with the list
+/// alone has already moved the map and the continuum, the blob is then taken where the residual
+/// is largest and its wavelength is tied to that wrong map (refined only ±FWHM/2), and the map
+/// stays off by +1.2 / −1.9 nm (was 2–3 nm). Run with `--ignored` to see it.
 #[test]
-#[ignore = "known failure: a strong unlisted line biases the map before it can be detected (flagged by the residual warning only)"]
+#[ignore = "known failure: the unlisted line is fitted and reported, but at the wrong wavelength (530 instead of 490 nm) and the map stays biased by 1–2 nm"]
 fn a_line_missing_from_the_lamp_list_is_reported_not_absorbed() {
     let Some(db) = database() else { return };
     let mut lamp = Lamp::mercury();
@@ -202,23 +287,38 @@ fn a_line_missing_from_the_lamp_list_is_reported_not_absorbed() {
         relative_power: 0.5,
     });
     lamp.lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
-    let s = spec(
-        lamp,
-        camera(&db, CAMERAS[0]),
-        0.01,
-        (VignettingShape::Quadratic, 0.2),
-        Some((ContinuumShape::Flat, 0.04)),
-        3,
-    );
-    let (cal, _) = calibrate(&s, &Lamp::mercury()).unwrap();
-    assert!(
-        cal.unexplained_lines
+    for (k, name) in CAMERAS.iter().enumerate() {
+        let s = spec(
+            lamp.clone(),
+            camera(&db, name),
+            0.01,
+            (VignettingShape::Quadratic, 0.2),
+            Some((ContinuumShape::Flat, 0.04)),
+            3 + k as u64,
+        );
+        let (cal, e) = calibrate(&s, &Lamp::mercury()).unwrap();
+        let found: Vec<_> = cal
+            .unexplained_lines
             .iter()
-            .any(|l| (l.nm - 490.0).abs() < UNEXPLAINED_POSITION_TOL_NM),
-        "{:?}",
-        cal.unexplained_lines
-    );
-    assert!(cal.warnings.iter().any(|w| w.contains("unexplained line")));
+            .filter(|l| (l.nm - 490.0).abs() < UNEXPLAINED_POSITION_TOL_NM)
+            .collect();
+        assert!(
+            found.len() == 1 && found[0].fitted,
+            "{name}: {:?}",
+            cal.unexplained_lines
+        );
+        assert!(
+            cal.warnings
+                .iter()
+                .any(|w| w.contains("unexplained line near 4") && w.contains("free wavelength")),
+            "{name}: {:?}",
+            cal.warnings
+        );
+        assert!(
+            e[0].abs() <= HG_TOL_NM && e[1].abs() <= HG_TOL_NM,
+            "{name}: map absorbed the line: {e:?}"
+        );
+    }
 }
 
 #[test]

@@ -3,23 +3,31 @@
 //! lines only; + quadratic vignetting 0.2; + a flat continuum 4 % of the 546 nm blob; both + 1 %
 //! noise; Canon 5D Mark II of the Jiang database, 1200×160 px, 372.3 nm + 0.3117 nm/px,
 //! Gaussian FWHM 25 nm). Issue 12 measured 0.000/0.000, 0.225/0.202, 0.357/0.654 and ≈ 0.6/0.9
-//! nm for the old model; the bound is 0.15 nm at 400 and 700 nm for each.
+//! nm for the old model; the bound is 0.15 nm at 400 and 700 nm for each. And issue 12's hardest
+//! Hg case on another camera (`d700_blackbody_cos4.png`: Nikon D700, 10 % blackbody 2700 K,
+//! cos⁴ 0.3, 1 % noise), fitted without and with the camera known (`--camera`).
 
 use std::path::PathBuf;
 
 use lumifit::io::series::read_frame;
-use lumifit::lvf::{calibrate_whole_profile, extract_profile, Axis, FitOptions, Lamp};
+use lumifit::lvf::{
+    calibrate_whole_profile, extract_profile, Axis, CameraResponse, FitOptions, Lamp,
+};
 mod common;
-use common::tolerances::lvf_continuum::HG_TOL_NM;
+use common::tolerances::lvf_continuum::{HG_GRID_BOUND_NM, HG_TOL_NM};
 
 fn check(name: &str) -> [f64; 2] {
+    check_with(name, &FitOptions::default())
+}
+
+fn check_with(name: &str, opts: &FitOptions) -> [f64; 2] {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/lvf_reference");
     let truth: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join(format!("{name}.json"))).unwrap()).unwrap();
     let (frame, _) = read_frame(&dir.join(format!("{name}.png"))).unwrap();
     let (w, h) = frame.source_size();
     let profile = extract_profile(&frame, [0, 0, w, h], Axis::X).unwrap();
-    let cal = calibrate_whole_profile(&profile, &Lamp::mercury(), &FitOptions::default()).unwrap();
+    let cal = calibrate_whole_profile(&profile, &Lamp::mercury(), opts).unwrap();
     let e = [
         cal.map.eval(truth["px_at_400"].as_f64().unwrap()) - 400.0,
         cal.map.eval(truth["px_at_700"].as_f64().unwrap()) - 700.0,
@@ -108,4 +116,31 @@ fn independent_cfl_images_from_the_cie_fl_tables_are_each_within_1_nm() {
         }
     }
     assert!(worst <= CFL_REFERENCE_TOL_NM, "worst {worst} nm");
+}
+
+/// The Nikon D700's red channel rises fivefold between 570 and 580 nm, under the 577/579 nm
+/// doublet: a continuum seen through it has an edge as sharp as a line blob there, which the
+/// per-channel spline (knots ≥ 1.5 FWHM apart) cannot follow. With the camera known the shared
+/// continuum spectrum carries the edge in Q_c itself.
+#[test]
+fn independent_nikon_d700_image_with_a_blackbody_continuum_and_cos4_fall_off() {
+    let Some(db) = common::jiang::database("the Nikon D700 reference image") else {
+        return;
+    };
+    let cam = common::jiang::camera(&db, "Nikon D700");
+    let blind = check("d700_blackbody_cos4");
+    let known = check_with(
+        "d700_blackbody_cos4",
+        &FitOptions {
+            camera: Some(CameraResponse::from_curves(&cam, "Nikon D700").unwrap()),
+            ..FitOptions::default()
+        },
+    );
+    eprintln!("Nikon D700 reference: without camera {blind:?}, with --camera {known:?}");
+    for e in [blind, known] {
+        assert!(
+            e[0].abs() <= HG_GRID_BOUND_NM && e[1].abs() <= HG_GRID_BOUND_NM,
+            "{e:?}"
+        );
+    }
 }

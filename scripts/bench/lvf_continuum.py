@@ -92,6 +92,10 @@ def main():
                     errs.append((abs(lam(t["px_at_400"]) - 400), abs(lam(t["px_at_700"]) - 700)))
                     sig.append((cal["sigma_nm_at_400"], cal["sigma_nm_at_700"]))
                     models.append(cal["background"]["model"])
+                    if cal.get("unexplained_lines"):
+                        print(f"  note: {cam} seed {seed}: unexplained lines "
+                              + ", ".join(f"{u['nm']:.1f} nm{' (fitted)' if u.get('fitted') else ''}"
+                                          for u in cal["unexplained_lines"]), flush=True)
                     r = run(["lvf", "calibrate", str(img), "--axis", "x", "--lamp", lamp, "--background",
                              "linear", "--no-radial-falloff", "--out", str(out)])
                     if r.returncode == 0:

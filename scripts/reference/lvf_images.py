@@ -35,6 +35,11 @@ position inside its 5 nm interval is only known through the neighbouring samples
 images check the line list to the table's resolution (about 1 nm), not to 0.1 nm. Cases:
 cfl_fl10.png, cfl_fl11.png and cfl_fl12.png (clean), cfl_fl11_noise.png (+ quadratic
 vignetting 0.3, 1 % noise, seed 13).
+
+Issue 12's hardest Hg case, on another camera: d700_blackbody_cos4.png — Nikon D700 of the
+Jiang database (../shared/data/camera/jiang2013_camspec_all_cameras_long.csv, read in place),
+a 2700 K blackbody continuum (Planck's law) scaled to 10 % of the brightest line blob, cos^4
+fall-off V = 1/(1 + r^2/f^2)^2 with V = 0.7 at the corners, 1 % noise (seed 13).
 """
 
 import argparse
@@ -48,6 +53,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 CAMERA = ROOT.parent / "shared" / "data" / "camera" / "jiang2013_canon_5d_mark_ii_400_720_10.csv"
+DATABASE = ROOT.parent / "shared" / "data" / "camera" / "jiang2013_camspec_all_cameras_long.csv"
 W, H = 1200, 160
 C0, C1 = 372.3, 0.3117
 FWHM = 25.0
@@ -60,6 +66,19 @@ def camera():
     rows = [l for l in CAMERA.read_text().splitlines() if l and not l.startswith("#")]
     data = np.array([[float(v) for v in r.split(",")] for r in rows[1:]])
     return data[:, 0], data[:, 1:4]
+
+
+def camera_from_database(name):
+    """One camera of the long-format Jiang table camera,wavelength_nm,r,g,b."""
+    rows = [r.split(",") for r in DATABASE.read_text().splitlines()[1:] if r.startswith(name + ",")]
+    data = np.array([[float(v) for v in r[1:]] for r in rows])
+    return data[:, 0], data[:, 1:4]
+
+
+def planck(nm, t_k):
+    h, c, k = 6.62607015e-34, 2.99792458e8, 1.380649e-23
+    lam = np.asarray(nm, dtype=float) * 1e-9
+    return 2 * h * c * c / lam**5 / np.expm1(h * c / (lam * k * t_k))
 
 
 def sens(wl, q, nm):
@@ -87,9 +106,9 @@ def line_profile(wl, q):
     return out, per_line
 
 
-def continuum_profile(wl, q):
+def continuum_profile(wl, q, spectrum=None):
     grid = np.arange(360.0, 830.0001, 0.25)
-    qg = sens(wl, q, grid)  # flat spectrum = 1
+    qg = sens(wl, q, grid) * (1.0 if spectrum is None else spectrum(grid)[:, None])
     px = np.arange(W, dtype=float)
     lam = C0 + C1 * px
     g = np.exp(-0.5 * ((grid[None, :] - lam[:, None]) / SIGMA) ** 2)
@@ -120,6 +139,15 @@ def vignetting(amount):
     y, x = np.mgrid[0:H, 0:W]
     r2 = ((x - cx) ** 2 + (y - cy) ** 2) / (cx * cx + cy * cy)
     return 1.0 - amount * r2
+
+
+def cos4(amount):
+    """1/(1 + r^2/f^2)^2 with 1 - amount at r = 1 (the corners)."""
+    cx, cy = (W - 1) / 2, (H - 1) / 2
+    y, x = np.mgrid[0:H, 0:W]
+    r2 = ((x - cx) ** 2 + (y - cy) ** 2) / (cx * cx + cy * cy)
+    inv_f2 = (1.0 - amount) ** -0.5 - 1.0
+    return 1.0 / (1.0 + r2 * inv_f2) ** 2
 
 
 def write_png16(path, img):
@@ -204,6 +232,35 @@ def main():
         }
         (out / f"{name}.json").write_text(json.dumps(truth, indent=1) + "\n")
         print(name, (out / f"{name}.png").stat().st_size, "bytes")
+
+    # Nikon D700, 10 % blackbody 2700 K continuum (of the brightest blob), cos^4 0.3, 1 % noise
+    wl, q = camera_from_database("Nikon D700")
+    lines, _ = line_profile(wl, q)
+    cont = continuum_profile(wl, q, lambda nm: planck(nm, 2700.0))
+    cont *= 0.10 * lines.max() / cont.max()
+    img = (lines + cont)[None, :, :] * cos4(0.3)[:, :, None]
+    img *= 0.8 / img.max()
+    rng = np.random.Generator(np.random.PCG64(13))
+    img = img + rng.normal(0.0, 0.01 * img.max(), img.shape)
+    name = "d700_blackbody_cos4"
+    write_png16(out / f"{name}.png", img)
+    truth = {
+        "schema": "lumifit.lvf-reference-truth/1",
+        "generator": "scripts/reference/lvf_images.py (numpy " + np.__version__ + ")",
+        "size": [W, H],
+        "map": {"kind": "linear", "coefficients": [C0, C1]},
+        "fwhm_nm": FWHM,
+        "px_at_400": (400 - C0) / C1,
+        "px_at_700": (700 - C0) / C1,
+        "camera": "Jiang 2013 Nikon D700",
+        "vignetting_cos4": 0.3,
+        "continuum_blackbody_k": 2700.0,
+        "continuum_relative_to_brightest_blob": 0.10,
+        "noise_relative_to_peak": 0.01,
+        "seed": 13,
+    }
+    (out / f"{name}.json").write_text(json.dumps(truth, indent=1) + "\n")
+    print(name, (out / f"{name}.png").stat().st_size, "bytes")
 
 
 if __name__ == "__main__":

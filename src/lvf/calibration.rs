@@ -210,6 +210,10 @@ pub struct BackgroundReport {
     pub sigma_includes_systematic: bool,
     /// What the σ include, in words.
     pub systematic_note: String,
+    /// Noise clipped at black, undone in the profile before the fit
+    /// ([`crate::lvf::censored`]); absent when no pixel was clipped.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub black_clipping: Option<crate::lvf::censored::Censoring>,
 }
 
 /// A blob in the residual that no listed lamp line explains.
@@ -221,8 +225,11 @@ pub struct UnexplainedLine {
     pub px: f64,
     /// Its amplitude over the profile's peak.
     pub amplitude_relative: f64,
-    /// Its amplitude over its standard error.
+    /// Its amplitude over its standard error (in the residual where it was found).
     pub significance: f64,
+    /// Whether it was fitted as an extra line of free wavelength (so the map does not absorb
+    /// it, [`crate::lvf::extra_lines`]) or only found in the final residual.
+    pub fitted: bool,
 }
 
 /// An LVF calibration (`lvf.json`).

@@ -374,6 +374,14 @@ impl<'a> Problem<'a> {
         }
     }
 
+    /// The same problem with another line list (the lamp's plus unlisted lines found in the
+    /// residual, [`crate::lvf::extra_lines`]).
+    fn with_lines(&self, lines: Vec<f64>) -> Problem<'a> {
+        let mut p = self.with(self.n_map, self.terms);
+        p.lines = lines;
+        p
+    }
+
     fn n_theta(&self) -> usize {
         self.n_map + 1 + self.terms.falloff_degree
     }
@@ -718,9 +726,6 @@ pub fn calibrate_whole_profile(
     lamp: &Lamp,
     opts: &FitOptions,
 ) -> Result<LvfCalibration> {
-    // Black clipping undone first (crate::lvf::censor): a clipped floor is not in the model.
-    let unclipped = crate::lvf::censor::unclip_profile(profile);
-    let profile = unclipped.as_ref().map_or(profile, |(p, _)| p);
     check_signal(profile)?;
     let increasing = opts.direction.is_increasing(profile)?;
     let sign = if increasing { 1.0 } else { -1.0 };
@@ -864,29 +869,30 @@ pub fn calibrate_whole_profile(
             falloff_degree,
         } => (vec![with_k(continuum, falloff_degree.min(6))], "requested"),
     };
-    let mut fitted: Vec<(Problem, Fitted, f64)> = candidates
-        .par_iter()
-        .map(|&terms| {
-            let pr = full.with(2, terms);
-            let mut best = pr.levenberg_marquardt(&pr.theta_from(&full, &plain_best.theta));
-            if terms.has_continuum() {
-                if let Some(second) = plain.get(1) {
-                    let f = pr.levenberg_marquardt(&pr.theta_from(&full, &second.theta));
-                    if f.eval.sse < best.eval.sse {
-                        best = f;
-                    }
-                }
-            }
-            let bic = pr.bic(&best);
-            (pr, best, bic)
-        })
-        .collect();
-    let best_i = (0..fitted.len())
-        .min_by(|&a, &b| fitted[a].2.total_cmp(&fitted[b].2))
-        .unwrap_or(0);
-    let best_bic = fitted[best_i].2;
-    let (chosen_pr, chosen_fit, _) = fitted.swap_remove(best_i);
-    let others = fitted;
+    let ln_n = ((3 * profile.px.len()) as f64).ln();
+    let mut starts: Vec<&[f64]> = vec![&plain_best.theta];
+    if let Some(second) = plain.get(1) {
+        starts.push(&second.theta);
+    }
+    let (mut chosen_pr, mut chosen_fit, mut best_bic, mut others) =
+        fit_candidates(&candidates, &full, &starts, 0, ln_n);
+    // A strong line the lamp list lacks would bias every candidate: search the chosen fit's
+    // residual, and when lines are found, choose the background again with them in the model.
+    // Only when the background is chosen (`Auto`): a requested model is fitted as asked.
+    let extra = if opts.background == BackgroundChoice::Auto {
+        search_unlisted_lines(&chosen_pr, &chosen_fit, ln_n)
+    } else {
+        Vec::new()
+    };
+    if !extra.is_empty() {
+        let mut l = lines.clone();
+        l.extend(extra.iter().map(|e| e.nm));
+        let full_x = full.with_lines(l);
+        let x_start = full.theta_from(&chosen_pr, &extra[extra.len() - 1].theta);
+        let starts_x: Vec<&[f64]> = vec![&x_start, &plain_best.theta];
+        (chosen_pr, chosen_fit, best_bic, others) =
+            fit_candidates(&candidates, &full_x, &starts_x, extra.len(), ln_n);
+    }
     let n_obs = 3 * profile.px.len();
 
     // Map degree.
@@ -968,6 +974,10 @@ pub fn calibrate_whole_profile(
             profile.source
         ),
     })?;
+    // A residual correlated along the profile (model misfit) carries fewer independent samples
+    // than it has points: the covariance is scaled by its correlation length τ ≥ 1.
+    let tau = crate::lvf::misfit::correlation_length(&eval.residual, 3);
+    let cov_theta = cov_theta * tau;
     let fwhm = pr.fwhm(&theta);
 
     // Map in pixels: λ = Σ a_k ((px − m)/h)^k  →  Σ c_i px^i, c = T a.
@@ -1031,6 +1041,7 @@ pub fn calibrate_whole_profile(
     all_centroids.retain(|l| !in_lines.contains(l));
     let n_out = all_centroids.len();
     all_centroids.extend(centroids.iter().copied());
+    all_centroids.extend(pr.lines[lines.len()..].iter().copied());
     for (gi, g) in groups.iter().enumerate() {
         // A group with no amplitude in any channel is not observed.
         let amp: f64 = g
@@ -1089,7 +1100,7 @@ pub fn calibrate_whole_profile(
     let cont_of = |c: usize, i: usize| -> f64 {
         let a = &eval.alpha[c];
         (0..nc)
-            .map(|j| a[N_BG + lines.len() + j] * pr.spline[i * nc + j])
+            .map(|j| a[N_BG + pr.lines.len() + j] * pr.spline[i * nc + j])
             .sum::<f64>()
             * fall[i]
     };
@@ -1191,7 +1202,7 @@ pub fn calibrate_whole_profile(
         continuum_intervals: pr.terms.continuum_intervals,
         continuum_coefficients: std::array::from_fn(|c| {
             (0..nc)
-                .map(|j| eval.alpha[c][N_BG + lines.len() + j])
+                .map(|j| eval.alpha[c][N_BG + pr.lines.len() + j])
                 .collect()
         }),
         shared_spectrum: match (&pr.shared, &eval.shared, &opts.camera) {
@@ -1205,11 +1216,12 @@ pub fn calibrate_whole_profile(
         radial_falloff: radial,
         radial_falloff_applied: radial_applied,
         candidates: candidate_reports,
+        black_clipping: profile.censoring.clone(),
         sigma_includes_systematic: selection_rule == "bic",
         systematic_note: if selection_rule == "bic" {
-            "sigma_nm_at_400/700 = √(statistical² + systematic²); the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre) and errors common to all candidates (passband shape, line list) are not included".into()
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile (diagnostics.residual_correlation_length, 1 for white noise), so a smooth misfit widens it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre) and errors common to all candidates (passband shape, line list) are not included".into()
         } else {
-            "sigma_nm_at_400/700 are statistical only (one background model was requested, so there is no model-choice spread)".into()
+            "sigma_nm_at_400/700 are statistical only (s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile; one background model was requested, so there is no model-choice spread)".into()
         },
     };
 
@@ -1245,7 +1257,7 @@ pub fn calibrate_whole_profile(
             "coarse_starts": starts.len(),
             "active_linear_parameters": eval.n_active,
             "rms_residual_nm_unweighted": rms_unweighted,
-            "black_clipping": unclipped.as_ref().map(|(_, r)| r),
+            "residual_correlation_length": tau,
         }),
         curves,
     };
@@ -1277,8 +1289,140 @@ pub fn calibrate_whole_profile(
         lamp,
         opts.fwhm_guess_nm,
     )?;
+    for (e, x) in extra.iter().enumerate() {
+        let a = (0..3)
+            .map(|c| eval.alpha[c][N_BG + lines.len() + e])
+            .fold(0.0f64, f64::max);
+        cal.unexplained_lines.push(UnexplainedLine {
+            nm: pr.lines[lines.len() + e],
+            px: cal
+                .map
+                .inverse(pr.lines[lines.len() + e])
+                .unwrap_or(f64::NAN),
+            amplitude_relative: a / peak,
+            significance: x.blob.significance,
+            fitted: true,
+        });
+        cal.warnings.push(format!(
+            "unexplained line near {:.1} nm (px {:.0}): a blob {:.1} % of the peak ({:.0}σ in the residual) that no line of lamp '{}' explains; it was fitted as an extra line of free wavelength so that it does not bias the map (add it to the lamp list, or exclude it with --roi)",
+            x.nm,
+            cal.map.inverse(x.nm).unwrap_or(f64::NAN),
+            100.0 * a / peak,
+            x.blob.significance,
+            lamp.name
+        ));
+    }
+    cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;
     Ok(cal)
+}
+
+/// Every background candidate refined from the given starts (θ in the layout of `full`), the
+/// best by BIC (`n_extra` unlisted line wavelengths counted as parameters, `ln_n` each) and the
+/// others.
+#[allow(clippy::type_complexity)]
+fn fit_candidates<'a>(
+    candidates: &[BackgroundTerms],
+    full: &Problem<'a>,
+    starts: &[&[f64]],
+    n_extra: usize,
+    ln_n: f64,
+) -> (Problem<'a>, Fitted, f64, Vec<(Problem<'a>, Fitted, f64)>) {
+    let mut fitted: Vec<(Problem<'a>, Fitted, f64)> = candidates
+        .par_iter()
+        .map(|&terms| {
+            let pr = full.with(2, terms);
+            let mut best = pr.levenberg_marquardt(&pr.theta_from(full, starts[0]));
+            if terms.has_continuum() {
+                for st in &starts[1..] {
+                    let f = pr.levenberg_marquardt(&pr.theta_from(full, st));
+                    if f.eval.sse < best.eval.sse {
+                        best = f;
+                    }
+                }
+            }
+            let bic = pr.bic(&best) + n_extra as f64 * ln_n;
+            (pr, best, bic)
+        })
+        .collect();
+    let best_i = (0..fitted.len())
+        .min_by(|&a, &b| fitted[a].2.total_cmp(&fitted[b].2))
+        .unwrap_or(0);
+    let best_bic = fitted[best_i].2;
+    let (chosen_pr, chosen_fit, _) = fitted.swap_remove(best_i);
+    (chosen_pr, chosen_fit, best_bic, fitted)
+}
+
+/// An unlisted line kept by [`search_unlisted_lines`]: its wavelength, the blob that suggested
+/// it, and θ of the fit that kept it.
+struct Unlisted {
+    nm: f64,
+    blob: crate::lvf::extra_lines::Blob,
+    theta: Vec<f64>,
+}
+
+/// Unlisted lines in the residual of `fit`, each kept only when it lowers the BIC by
+/// [`extra_lines::MIN_BIC_GAIN`](crate::lvf::extra_lines::MIN_BIC_GAIN) (see
+/// [`crate::lvf::extra_lines`]); `ln_n` is the BIC's penalty per parameter.
+fn search_unlisted_lines(pr: &Problem, fit: &Fitted, ln_n: f64) -> Vec<Unlisted> {
+    use crate::lvf::extra_lines as xl;
+    let n = pr.u.len();
+    let noise: [f64; 3] = std::array::from_fn(|c| profile_noise(pr.y[c]));
+    let noise_rms = (noise.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
+    let peak = (0..3)
+        .flat_map(|c| pr.y[c].iter().copied())
+        .fold(f64::MIN, f64::max)
+        .max(1e-300);
+    let mut found: Vec<Unlisted> = Vec::new();
+    let mut cur = pr.with_lines(pr.lines.clone());
+    let mut theta = fit.theta.clone();
+    let mut eval = cur.eval(&theta);
+    let mut bic = pr.bic(fit);
+    while found.len() < xl::MAX_EXTRA {
+        let over = (eval.sse / (3 * n) as f64).sqrt() / noise_rms.max(1e-12 * peak);
+        if over <= xl::SEARCH_OVER_NOISE {
+            break;
+        }
+        let lams: Vec<f64> = cur.u.iter().map(|&u| cur.lambda(&theta, u)).collect();
+        let fwhm = cur.fwhm(&theta);
+        let v = cur.falloff_coefficients(&theta);
+        let scale: Vec<f64> = (0..n)
+            .map(|i| falloff(v, cur.u[i]) * cur.vfix.get(i).copied().unwrap_or(1.0))
+            .collect();
+        let g = |d: f64| cur.passband.eval(d, fwhm);
+        let score = xl::matched_filter(&lams, &scale, &eval.residual, &g, 2.0 * fwhm, noise, peak);
+        let mut best: Option<(Problem, Fitted, f64, Unlisted)> = None;
+        for b in xl::blobs(&score, &lams, fwhm, &cur.lines) {
+            let mut lines = cur.lines.clone();
+            lines.push(b.nm);
+            let k = lines.len() - 1;
+            let p1 = cur.with_lines(lines.clone());
+            let f1 = p1.levenberg_marquardt(&theta);
+            let cost = |d: f64| {
+                let mut l = lines.clone();
+                l[k] = b.nm + d;
+                p1.eval_with(&f1.theta, &l).sse
+            };
+            lines[k] = b.nm + brent_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-3);
+            let p2 = cur.with_lines(lines.clone());
+            let f2 = p2.levenberg_marquardt(&f1.theta);
+            let b2 = p2.bic(&f2) + (found.len() + 1) as f64 * ln_n;
+            if b2 < bic - xl::MIN_BIC_GAIN && best.as_ref().is_none_or(|x| b2 < x.2) {
+                let u = Unlisted {
+                    nm: lines[k],
+                    blob: b,
+                    theta: f2.theta.clone(),
+                };
+                best = Some((p2, f2, b2, u));
+            }
+        }
+        let Some((p2, f2, b2, u)) = best else {
+            break;
+        };
+        (cur, theta, eval, bic) = (p2, f2.theta, f2.eval, b2);
+        found.push(u);
+    }
+    found
 }
 
 /// The fit whose residual is searched for unexplained lines.
@@ -1483,6 +1627,7 @@ fn assess(
             px: cal.curves.px.get(i).copied().unwrap_or(f64::NAN),
             amplitude_relative: rel,
             significance: sig,
+            fitted: false,
         });
         if found.len() >= 8 {
             break;

@@ -25,12 +25,14 @@
 pub mod background;
 pub mod calibration;
 pub mod capture_synth;
-pub mod censor;
+pub mod censored;
+pub mod extra_lines;
 pub mod fit;
 pub mod flat;
 pub mod flat_synth;
 pub mod geometry;
 pub mod lamp;
+pub mod misfit;
 pub mod peaks;
 pub mod profile;
 pub mod shared_continuum;

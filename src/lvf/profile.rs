@@ -26,9 +26,6 @@ pub struct Profile {
     pub values: [Vec<f64>; 3],
     /// Number of pixels averaged at each position.
     pub counts: Vec<usize>,
-    /// Per channel, how many of those pixels are exactly 0 (black clipping, undone by
-    /// [`crate::lvf::censor::unclip_profile`]).
-    pub zeros: [Vec<usize>; 3],
     /// Name of the image.
     pub source: String,
     /// The ROI cut across the axis into strips ([`N_STRIPS`]), for the vignetting estimate of
@@ -36,6 +33,9 @@ pub struct Profile {
     pub strips: Vec<Strip>,
     /// Size of the source image `[w, h]` (px): its centre is taken as the optical centre.
     pub frame_size: [usize; 2],
+    /// Noise clipped at black undone in `values` ([`crate::lvf::censored`]), `None` when no
+    /// pixel was clipped or the noise could not be estimated.
+    pub censoring: Option<crate::lvf::censored::Censoring>,
 }
 
 /// A strip of the ROI across the axis: its mean per channel at the profile's positions.
@@ -95,7 +95,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
     let mut px = Vec::new();
     let mut values: [Vec<f64>; 3] = Default::default();
     let mut counts = Vec::new();
-    let mut zeros: [Vec<usize>; 3] = Default::default();
+    let mut zeros: Vec<[usize; 3]> = Vec::new();
     let n_strips = N_STRIPS.min(across.len() / 2).max(1);
     let strip_of = |k: usize| k * n_strips / across.len();
     let mut strips: Vec<Strip> = (0..n_strips)
@@ -116,7 +116,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
     let mut n_all_saturated = 0;
     for &a in along {
         let mut sum = [0.0; 3];
-        let mut nz = [0usize; 3];
+        let mut zero = [0usize; 3];
         let mut n = 0;
         let mut ssum = vec![[0.0; 3]; n_strips];
         let mut sn = vec![0usize; n_strips];
@@ -133,7 +133,7 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
             for c in 0..3 {
                 sum[c] += f64::from(v[c]);
                 ssum[s][c] += f64::from(v[c]);
-                nz[c] += usize::from(v[c] == 0.0);
+                zero[c] += usize::from(v[c] <= 0.0);
             }
             n += 1;
             sn[s] += 1;
@@ -145,9 +145,9 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
         px.push(frame.source_coordinate(a));
         for c in 0..3 {
             values[c].push(sum[c] / n as f64);
-            zeros[c].push(nz[c]);
         }
         counts.push(n);
+        zeros.push(zero);
         for (s, st) in strips.iter_mut().enumerate() {
             for (c, col) in st.values.iter_mut().enumerate() {
                 col.push(if sn[s] > 0 {
@@ -169,15 +169,16 @@ pub fn extract_profile(frame: &RgbFrame, roi: [usize; 4], axis: Axis) -> Result<
             ),
         ));
     }
+    let censoring = crate::lvf::censored::decensor(&mut values, &counts, &zeros);
     Ok(Profile {
         axis,
         roi,
         px,
         values,
         counts,
-        zeros,
         source: frame.name.clone(),
         strips,
         frame_size: [sw, sh],
+        censoring,
     })
 }

@@ -236,9 +236,10 @@ pub mod lvf_continuum {
     /// Issue 12: |Δλ| at 400 and 700 nm with continuum ≤ 10 %, vignetting ≤ 0.3, 1 % noise (Hg).
     /// Met on the independent reference images and on the Canon 5D Mark II grid.
     pub const HG_TOL_NM: f64 = 0.15;
-    /// What the model reaches over three cameras and vignetting shapes (measured up to 0.41 nm:
-    /// Nikon D700, blackbody 2700 K + cos⁴ 0.3; docs/performance.md). The issue's 0.15 nm is
-    /// NOT met on every camera; this bound documents the state and catches regressions.
+    /// What the model reaches over three cameras and every shape of the grid (fourth session:
+    /// up to 0.242 nm, SONY NEX-5N with weak violet lines; 0.171 nm off-centre fall-off; was
+    /// 0.41 nm on the Nikon D700 with blackbody 2700 K + cos⁴ 0.3, now 0.03; docs/performance.md).
+    /// The issue's 0.15 nm is NOT met in those two rows; this bound catches regressions.
     pub const HG_GRID_BOUND_NM: f64 = 0.45;
     /// The same for a CFL under its phosphor continuum: the issue asks 0.3 nm; measured up to
     /// 0.93 nm (NOT met; the per-channel continuum trades with the many weak CFL lines).
@@ -260,6 +261,19 @@ pub mod lvf_continuum {
     pub const ABSENT_LINE_BOUND_NM: f64 = 0.6;
     /// A noise-free lamp with neither: the fit is exact up to the optimiser's tolerance.
     pub const CLEAN_TOL_NM: f64 = 0.005;
+    /// The same lamp at 1 % noise: the issue asks "no worse than today", and the model before
+    /// issue 12 reached 0.001–0.005 nm on the grid (docs/performance.md).
+    pub const CLEAN_NOISY_TOL_NM: f64 = 0.005;
     /// An unexplained line is reported within a fifth of the 25 nm passband of its wavelength.
     pub const UNEXPLAINED_POSITION_TOL_NM: f64 = 5.0;
+}
+
+/// `tests/lvf_sigma_coverage.rs` (issue 12: a σ that covers the error).
+pub mod lvf_sigma_coverage {
+    /// The interval judged: ±2σ, a 95 % interval for a Gaussian error.
+    pub const COVERAGE_K: f64 = 2.0;
+    /// Issue 12 asks the reported σ to cover the error in ≥ 90 % of the grid's cases; measured
+    /// 88 % at 2σ (21 of 24; 79 % at 1σ): NOT met — the misses are the SONY NEX-5N at 5 % noise
+    /// (|e| = 2.8σ / 2.4σ) and its clean lamp at 700 nm (2.4σ). This floor catches regressions.
+    pub const MIN_COVERAGE: f64 = 0.85;
 }

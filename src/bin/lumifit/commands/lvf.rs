@@ -115,7 +115,7 @@ pub struct CalibrateArgs {
     pub no_radial_falloff: bool,
     /// Knot spacings of the continuum candidates in units of the FWHM, coarsest first
     /// (0.8–10 each; the first is also the one `--background continuum` uses).
-    #[arg(long, value_delimiter = ',', default_value = "2.5,1.5")]
+    #[arg(long, value_delimiter = ',', default_value = "2.5,1.5,1.0")]
     pub continuum_knots: Vec<f64>,
     /// Flat-field photo through the LVF (broadband source, same size and framing): its smooth
     /// fall-off is divided out instead of the one modelled from the lamp photo.
