@@ -248,6 +248,13 @@ impl<'c> Prepared<'c> {
             xtol: ALTERNATION_XTOL.max(opts.solver.xtol),
             ..opts.solver
         };
+        // The spectrum is converged as far as the fit's own tolerance asks: to 1e-11 for a
+        // result, to SEED_SPECTRUM_TOL for a seed fit (which is refined if it is selected).
+        let spectrum_tol = if opts.solver.ftol >= SEED_FTOL {
+            SEED_SPECTRUM_TOL
+        } else {
+            1e-11
+        };
         let mut tight = false;
         for round in 0..ALTERNATION_ROUNDS {
             tight |= round + 5 >= ALTERNATION_ROUNDS;
@@ -298,7 +305,7 @@ impl<'c> Prepared<'c> {
                     new_s.iter_mut().for_each(|x| *x /= norm);
                     scale = norm;
                     let d: f64 = new_s.iter().zip(&s).map(|(a, b)| (a - b).abs()).sum();
-                    done = tight && d < 1e-11;
+                    done = tight && d < spectrum_tol;
                     tight |= d < ALTERNATION_SETTLED;
                 }
             }

@@ -13,6 +13,10 @@ pub(super) const SEED_FTOL: f64 = 1e-6;
 /// Relative step at which a seed fit stops.
 pub(super) const SEED_XTOL: f64 = 1e-5;
 
+/// Change of the unit spectrum (sum of absolute differences) at which the alternation of a seed
+/// fit (solver tolerance ≥ [`SEED_FTOL`]) ends; a result's alternation goes on to 1e-11.
+pub(super) const SEED_SPECTRUM_TOL: f64 = 1e-7;
+
 /// Relative cost reduction at which a round of the shared-spectrum alternation stops while the
 /// spectrum is still moving (see [`ALTERNATION_SETTLED`]).
 pub(super) const ALTERNATION_FTOL: f64 = 1e-8;
