@@ -1580,33 +1580,19 @@ fn assess(
     let lams: Vec<f64> = pr.u.iter().map(|&u| pr.lambda(theta, u)).collect();
     let fwhm = pr.fwhm(theta);
     let v = pr.falloff_coefficients(theta);
-    let mut score = vec![(0.0f64, 0.0f64); n]; // (relative amplitude, significance)
-    for (i, &li) in lams.iter().enumerate() {
-        let (mut stt, mut srt) = (0.0, [0.0; 3]);
-        for (j, &lj) in lams.iter().enumerate() {
-            let d = lj - li;
-            if d.abs() > 2.0 * fwhm {
-                continue;
-            }
-            let tj = falloff(v, pr.u[j])
-                * pr.vfix.get(j).copied().unwrap_or(1.0)
-                * pr.passband.eval(-d, fwhm);
-            stt += tj * tj;
-            for (c, s) in srt.iter_mut().enumerate() {
-                *s += eval.residual[c * n + j] * tj;
-            }
-        }
-        if stt <= 0.0 {
-            continue;
-        }
-        for (c, s) in srt.iter().enumerate() {
-            let a = s / stt;
-            let sig = a / (noise[c].max(1e-12 * peak) / stt.sqrt());
-            if a / peak > score[i].0 {
-                score[i] = (a / peak, sig);
-            }
-        }
-    }
+    let scale: Vec<f64> = (0..n)
+        .map(|j| falloff(v, pr.u[j]) * pr.vfix.get(j).copied().unwrap_or(1.0))
+        .collect();
+    // (relative amplitude, significance) per sample
+    let score = crate::lvf::extra_lines::matched_filter(
+        &lams,
+        &scale,
+        &eval.residual,
+        &|d| pr.passband.eval(d, fwhm),
+        2.0 * fwhm,
+        [noise[0], noise[1], noise[2]],
+        peak,
+    );
     let mut found: Vec<UnexplainedLine> = Vec::new();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| score[b].0.total_cmp(&score[a].0));
