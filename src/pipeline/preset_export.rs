@@ -304,18 +304,7 @@ fn openpbr(job: &ExportJob, out: &mut Outputs) -> Result<ExportReport> {
         pretty(&openpbr_parameters(&preset, &file, &opts)?)? + "\n"
     };
     out.stage_text(&job.out, &text)?;
-    Ok(ExportReport {
-        summary: if job.out.as_os_str() == "-" {
-            None
-        } else {
-            Some(pretty(&json!({
-                "preset": file,
-                "format": job.format.name(),
-                "written": [job.out.display().to_string()],
-            }))?)
-        },
-        note: None,
-    })
+    single_file_report(job, &file, None)
 }
 
 /// `--format wgsl|glsl`: every snippet the preset carries, in one file.
@@ -341,17 +330,32 @@ fn snippets(job: &ExportJob, out: &mut Outputs) -> Result<ExportReport> {
     .into_iter()
     .flatten()
     .collect();
+    single_file_report(job, &file, Some(sections))
+}
+
+/// The report of an export to one file (`--out FILE`; none for stdout): preset, format, the
+/// file written and, for shader snippets, the sections the file holds.
+fn single_file_report(
+    job: &ExportJob,
+    file: &str,
+    sections: Option<Vec<&str>>,
+) -> Result<ExportReport> {
+    if job.out.as_os_str() == "-" {
+        return Ok(ExportReport {
+            summary: None,
+            note: None,
+        });
+    }
+    let mut summary = json!({
+        "preset": file,
+        "format": job.format.name(),
+        "written": [job.out.display().to_string()],
+    });
+    if let Some(s) = sections {
+        summary["sections"] = json!(s);
+    }
     Ok(ExportReport {
-        summary: if job.out.as_os_str() == "-" {
-            None
-        } else {
-            Some(pretty(&json!({
-                "preset": file,
-                "format": job.format.name(),
-                "written": [job.out.display().to_string()],
-                "sections": sections,
-            }))?)
-        },
+        summary: Some(pretty(&summary)?),
         note: None,
     })
 }
