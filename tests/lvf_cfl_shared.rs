@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 
-use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
+use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
 use lumifit::lvf::{
     calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
     LvfSynthSpec,
@@ -23,24 +23,14 @@ fn database() -> Option<Vec<u8>> {
 }
 
 fn spec(cam: MultiSpectrum, shape: ContinuumShape, vignetting: f64, seed: u64) -> LvfSynthSpec {
-    LvfSynthSpec {
-        width: 1200,
-        height: 160,
-        axis: Axis::X,
-        nm_at_start: 372.3,
-        nm_per_px: 0.3117,
-        fwhm_nm: 25.0,
-        lamp: Lamp::cfl(),
-        camera: cam,
-        noise: 0.01,
-        vignetting,
-        vignetting_shape: VignettingShape::Quadratic,
-        continuum: Some(Continuum {
-            shape,
-            fraction: 0.10,
-        }),
+    common::lvf_geometry::spec(
+        Lamp::cfl(),
+        cam,
+        0.01,
+        (VignettingShape::Quadratic, vignetting),
+        Some((shape, 0.10)),
         seed,
-    }
+    )
 }
 
 /// |Δλ| at 400 and 700 nm and the background model chosen.

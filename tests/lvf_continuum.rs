@@ -8,12 +8,11 @@
 //! Geometry of issue 12 / docs/performance.md: 1200×160 px, 372.3 nm + 0.3117 nm/px, Gaussian
 //! passband FWHM 25 nm.
 
-use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
+use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
 use lumifit::lvf::{
     calibrate_whole_profile, extract_profile, render_lvf, Axis, BackgroundChoice, FitOptions, Lamp,
     LampLine, LvfCalibration, LvfSynthSpec,
 };
-use lumifit::spectrum::MultiSpectrum;
 mod common;
 use common::tolerances::lvf_continuum::*;
 
@@ -23,31 +22,7 @@ fn database() -> Option<Vec<u8>> {
     common::jiang::database("the three-camera checks")
 }
 
-#[allow(clippy::too_many_arguments)]
-fn spec(
-    lamp: Lamp,
-    camera: MultiSpectrum,
-    noise: f64,
-    vignetting: (VignettingShape, f64),
-    continuum: Option<(ContinuumShape, f64)>,
-    seed: u64,
-) -> LvfSynthSpec {
-    LvfSynthSpec {
-        width: 1200,
-        height: 160,
-        axis: Axis::X,
-        nm_at_start: 372.3,
-        nm_per_px: 0.3117,
-        fwhm_nm: 25.0,
-        lamp,
-        camera,
-        noise,
-        vignetting: vignetting.1,
-        vignetting_shape: vignetting.0,
-        continuum: continuum.map(|(shape, fraction)| Continuum { shape, fraction }),
-        seed,
-    }
-}
+use common::lvf_geometry::spec;
 
 fn calibrate(s: &LvfSynthSpec, fit_lamp: &Lamp) -> lumifit::Result<(LvfCalibration, [f64; 2])> {
     calibrate_with(s, fit_lamp, &FitOptions::default())

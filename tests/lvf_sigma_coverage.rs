@@ -7,10 +7,8 @@
 //!
 //! Geometry of issue 12: 1200×160 px, 372.3 nm + 0.3117 nm/px, Gaussian passband FWHM 25 nm.
 
-use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
-use lumifit::lvf::{
-    calibrate_whole_profile, extract_profile, render_lvf, Axis, FitOptions, Lamp, LvfSynthSpec,
-};
+use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
+use lumifit::lvf::{calibrate_whole_profile, extract_profile, render_lvf, Axis, FitOptions, Lamp};
 mod common;
 use common::jiang::{camera, CAMERAS};
 use common::tolerances::lvf_sigma_coverage::*;
@@ -47,24 +45,14 @@ fn reported_sigma_covers_the_map_error_over_cameras_shapes_and_noise() {
     let (mut within_1, mut within_k, mut total) = (0usize, 0usize, 0usize);
     for (ci, name) in CAMERAS.iter().enumerate() {
         for (ki, (label, noise, vs, v, cont)) in kinds.iter().enumerate() {
-            let s = LvfSynthSpec {
-                width: 1200,
-                height: 160,
-                axis: Axis::X,
-                nm_at_start: 372.3,
-                nm_per_px: 0.3117,
-                fwhm_nm: 25.0,
-                lamp: Lamp::mercury(),
-                camera: camera(&db, name),
-                noise: *noise,
-                vignetting: *v,
-                vignetting_shape: *vs,
-                continuum: cont.map(|shape| Continuum {
-                    shape,
-                    fraction: 0.10,
-                }),
-                seed: 500 + (10 * ci + ki) as u64,
-            };
+            let s = common::lvf_geometry::spec(
+                Lamp::mercury(),
+                camera(&db, name),
+                *noise,
+                (*vs, *v),
+                cont.map(|shape| (shape, 0.10)),
+                500 + (10 * ci + ki) as u64,
+            );
             let (frame, truth) = render_lvf(&s).unwrap();
             let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
             let cal = calibrate_whole_profile(&profile, &Lamp::mercury(), &FitOptions::default())

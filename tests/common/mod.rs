@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod jiang;
+pub mod lvf_geometry;
 pub mod tolerances;
 
 use std::path::{Path, PathBuf};
