@@ -974,10 +974,9 @@ pub fn calibrate_whole_profile(
             profile.source
         ),
     })?;
-    // A residual correlated along the profile (model misfit) carries fewer independent samples
-    // than it has points: the covariance is scaled by its correlation length τ ≥ 1.
+    // The residual's correlation length τ (reported; the covariance before the sandwich was
+    // s²(JᵀJ)⁻¹·τ, kept in the diagnostics for comparison).
     let tau = crate::lvf::misfit::correlation_length(&eval.residual, 3);
-    let cov_theta = cov_theta * tau;
     let fwhm = pr.fwhm(&theta);
 
     // Map in pixels: λ = Σ a_k ((px − m)/h)^k  →  Σ c_i px^i, c = T a.
@@ -993,6 +992,35 @@ pub fn calibrate_whole_profile(
     }
     let a = DVector::from_iterator(deg, theta[..deg].iter().copied());
     let c = &t * a;
+    // Statistical covariance of θ: the HAC sandwich ([`crate::lvf::sigma`]), its bandwidth
+    // chosen from the scores of λ at the 400 and 700 nm positions.
+    let provisional = MapModel {
+        kind: MapKind::Linear,
+        coefficients: c.iter().copied().collect(),
+        covariance: Vec::new(),
+    };
+    let targets: Vec<DVector<f64>> = [400.0, 700.0]
+        .iter()
+        .filter_map(|&nm| provisional.inverse(nm))
+        .map(|px| {
+            let u = (px - m) / h;
+            DVector::from_fn(p, |j, _| if j < deg { u.powi(j as i32) } else { 0.0 })
+        })
+        .collect();
+    let sandwich =
+        crate::lvf::sigma::hac_sandwich(&jac, &eval.residual, 3, eval.n_active, &targets);
+    let sigma_compare = |cov: &DMatrix<f64>| -> Vec<f64> {
+        targets
+            .iter()
+            .map(|a| (a.transpose() * cov * a)[(0, 0)].max(0.0).sqrt())
+            .collect()
+    };
+    let sigma_homoscedastic = sigma_compare(&cov_theta);
+    let sigma_tau = sigma_compare(&(&cov_theta * tau));
+    let cov_theta = match &sandwich {
+        Some(s) => s.covariance.clone(),
+        None => cov_theta * tau,
+    };
     let cov_a = cov_theta.view((0, 0), (deg, deg)).into_owned();
     let cov_c = &t * cov_a * t.transpose();
     let map = MapModel {
@@ -1258,6 +1286,13 @@ pub fn calibrate_whole_profile(
             "active_linear_parameters": eval.n_active,
             "rms_residual_nm_unweighted": rms_unweighted,
             "residual_correlation_length": tau,
+            "statistical_sigma": {
+                "method": if sandwich.is_some() { "hac-sandwich" } else { "homoscedastic × correlation length (sandwich singular)" },
+                "hac_bandwidth_lags": sandwich.as_ref().map(|s| s.bandwidth),
+                "score_lag1_autocorrelation": sandwich.as_ref().map(|s| s.score_rho.clone()),
+                "homoscedastic_nm_at_400_700": sigma_homoscedastic,
+                "correlation_length_scaled_nm_at_400_700": sigma_tau,
+            },
         }),
         curves,
     };

@@ -36,6 +36,7 @@ pub mod misfit;
 pub mod peaks;
 pub mod profile;
 pub mod shared_continuum;
+pub mod sigma;
 pub mod synth;
 pub mod transmission;
 

@@ -272,8 +272,10 @@ pub mod lvf_continuum {
 pub mod lvf_sigma_coverage {
     /// The interval judged: ±2σ, a 95 % interval for a Gaussian error.
     pub const COVERAGE_K: f64 = 2.0;
-    /// Issue 12 asks the reported σ to cover the error in ≥ 90 % of the grid's cases; measured
-    /// 88 % at 2σ (21 of 24; 79 % at 1σ): NOT met — the misses are the SONY NEX-5N at 5 % noise
-    /// (|e| = 2.8σ / 2.4σ) and its clean lamp at 700 nm (2.4σ). This floor catches regressions.
-    pub const MIN_COVERAGE: f64 = 0.85;
+    /// Issue 12 asks the reported σ to cover the error in ≥ 90 % of the grid's cases. With the
+    /// HAC sandwich covariance (`lvf::sigma`) measured 96 % at 2σ (23 of 24; 88 % at 1σ; the
+    /// one miss the SONY NEX-5N at 5 % noise, 400 nm, 2.7σ); on the held-out set of
+    /// `tests/lvf_sigma_heldout.rs` (144 pairs, other seeds, eight shapes) 93 %. Asserted at the
+    /// issue's 90 % (22 of 24).
+    pub const MIN_COVERAGE: f64 = 0.90;
 }
