@@ -9,9 +9,10 @@
 //! ([`fit::lm`](crate::fit::lm)) on the projected residual (central-difference Jacobian), started
 //! from the best few cells of a coarse grid over (a0, a1) at the guessed FWHM with the offset
 //! only; the background terms (continuum, fall-off degree) are then chosen by BIC among refined
-//! candidates. The covariance of θ is s²(JᵀJ)⁻¹ with s² = SSE/(N − p − k) (N samples over all
-//! channels, p nonlinear, k active linear parameters) and is propagated to the coefficients in
-//! pixels; the spread between background models within ΔBIC ≤ 10 is reported as the systematic
+//! candidates. The covariance of θ is the HAC sandwich (JᵀJ)⁻¹B(JᵀJ)⁻¹ of
+//! [`crate::lvf::sigma`] (noise growing with the signal and residuals correlated along the
+//! profile; s²(JᵀJ)⁻¹ with s² = SSE/(N − p − k) is kept in the diagnostics) and is propagated to
+//! the coefficients in pixels; the spread between background models within ΔBIC ≤ 10 is reported as the systematic
 //! part of σ at 400/700 nm. [`assess`] then refuses physically impossible maps and flags what the
 //! model does not explain.
 
@@ -1247,9 +1248,9 @@ pub fn calibrate_whole_profile(
         black_clipping: profile.censoring.clone(),
         sigma_includes_systematic: selection_rule == "bic",
         systematic_note: if selection_rule == "bic" {
-            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile (diagnostics.residual_correlation_length, 1 for white noise), so a smooth misfit widens it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre) and errors common to all candidates (passband shape, line list) are not included".into()
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
         } else {
-            "sigma_nm_at_400/700 are statistical only (s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile; one background model was requested, so there is no model-choice spread)".into()
+            "sigma_nm_at_400/700 are statistical only (the sandwich covariance with a heteroscedasticity- and autocorrelation-consistent middle, Newey–West; one background model was requested, so there is no model-choice spread)".into()
         },
     };
 
