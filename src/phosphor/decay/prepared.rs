@@ -256,6 +256,7 @@ impl<'c> Prepared<'c> {
             1e-11
         };
         let mut tight = false;
+        let mut prev_d = f64::INFINITY;
         for round in 0..ALTERNATION_ROUNDS {
             tight |= round + 5 >= ALTERNATION_ROUNDS;
             for (i, v) in ys.iter_mut().enumerate() {
@@ -305,7 +306,15 @@ impl<'c> Prepared<'c> {
                     new_s.iter_mut().for_each(|x| *x /= norm);
                     scale = norm;
                     let d: f64 = new_s.iter().zip(&s).map(|(a, b)| (a - b).abs()).sum();
-                    done = tight && d < spectrum_tol;
+                    // Converged when the spectrum has stopped moving — or, once the rounds
+                    // contract strongly (ρ = d/d_prev ≤ EXTRAPOLATE_RHO, typically 1e-3), when
+                    // the rest of its path, d·ρ/(1 − ρ) by the geometric series of the next
+                    // moves, is below the tolerance: the round that would measure it is skipped.
+                    let rho = d / prev_d;
+                    done = tight
+                        && (d < spectrum_tol
+                            || (rho <= EXTRAPOLATE_RHO && d * rho / (1.0 - rho) < spectrum_tol));
+                    prev_d = d;
                     tight |= d < ALTERNATION_SETTLED;
                 }
             }
