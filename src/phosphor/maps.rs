@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use crate::capture::{PhotoSeries, RgbFrame};
 use crate::error::{Error, Result};
 
-use super::decay::{fit_decay, DecayCurve, DecayFitOptions};
+use super::decay::{fit_decay_values, DecayCurve, DecayFitOptions};
 
 /// Read-noise share of the variance at the block's peak in the weights (see the module docs).
 pub const READ_NOISE_FRACTION: f64 = 0.1;
@@ -519,7 +519,7 @@ fn fit_curve(curve: Option<DecayCurve>, opts: &DecayFitOptions) -> BlockFit {
     let Some(curve) = curve else {
         return BlockFit::FAILED;
     };
-    let Ok(fit) = fit_decay(&curve, opts) else {
+    let Ok(fit) = fit_decay_values(&curve, opts) else {
         return BlockFit::FAILED;
     };
     if !fit.rms.is_finite() {

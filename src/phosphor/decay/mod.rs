@@ -51,6 +51,7 @@ mod types;
 mod uncertainty;
 
 pub use reradiation::{band_spectrum, reradiation_functions, reradiation_functions_rgb};
+pub(crate) use select::fit_decay_values;
 pub use select::{fit_decay, fit_decay_full_tolerance, fit_decay_joint, fit_decay_projected};
 pub use types::*;
 

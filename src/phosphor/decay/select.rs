@@ -261,6 +261,15 @@ pub fn fit_decay(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit>
     fit_decay_with(curve, opts, true, SharedSolve::Alternation)
 }
 
+/// [`fit_decay`] without the report's standard deviations of the selected fit (the
+/// `k_sigma_per_s` / `amplitude_sigma` fields are `None`, and neither the
+/// `RatePoorlyDetermined` nor the `SingularCovariance` flag is raised): the same states,
+/// spectrum, RSS and decisions. For per-pixel maps, which keep only those (3 % of their time
+/// went to the unused covariance).
+pub(crate) fn fit_decay_values(curve: &DecayCurve, opts: &DecayFitOptions) -> Result<DecayFit> {
+    fit_decay_with_report(curve, opts, true, SharedSolve::Alternation, false)
+}
+
 /// [`fit_decay`] with every shared-spectrum fit of n ≥ 2 states by one round of the
 /// alternation followed by one joint Levenberg–Marquardt solve over rates, amplitudes, spectrum
 /// and background (the alternation continues where that optimum is not interior). The same
@@ -299,6 +308,16 @@ fn fit_decay_with(
     opts: &DecayFitOptions,
     provisional_top: bool,
     shared_solve: SharedSolve,
+) -> Result<DecayFit> {
+    fit_decay_with_report(curve, opts, provisional_top, shared_solve, true)
+}
+
+fn fit_decay_with_report(
+    curve: &DecayCurve,
+    opts: &DecayFitOptions,
+    provisional_top: bool,
+    shared_solve: SharedSolve,
+    sds: bool,
 ) -> Result<DecayFit> {
     let (lo, hi) = match opts.states {
         StatesChoice::Auto { max } => (1, max),
@@ -428,7 +447,7 @@ fn fit_decay_with(
                 .into(),
         });
     }
-    Ok(prep.finish(raw, opts, candidates, flags))
+    Ok(prep.finish(raw, opts, candidates, flags, sds))
 }
 
 impl Prepared<'_> {

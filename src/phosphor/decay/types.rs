@@ -27,6 +27,9 @@ pub(super) const ALTERNATION_XTOL: f64 = 1e-6;
 pub(super) const ALTERNATION_SETTLED: f64 = 1e-5;
 /// Most rounds of the alternation (the last five at the full tolerance).
 pub(super) const ALTERNATION_ROUNDS: usize = 30;
+/// Contraction of the alternation (ratio of successive spectrum moves) below which the rest of
+/// the spectrum's path is extrapolated instead of measured by one more round.
+pub(super) const EXTRAPOLATE_RHO: f64 = 0.01;
 
 /// A measured decay: times and one or more channels, optional per-sample standard deviations.
 #[derive(Debug, Clone, PartialEq)]

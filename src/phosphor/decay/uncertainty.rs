@@ -132,6 +132,7 @@ impl Prepared<'_> {
         opts: &DecayFitOptions,
         candidates: Vec<Candidate>,
         mut flags: Vec<DecayFlag>,
+        want_sds: bool,
     ) -> DecayFit {
         let nc = self.n_ch;
         let n = raw.theta.len();
@@ -173,8 +174,10 @@ impl Prepared<'_> {
                     .collect(),
             )
         };
-        let sds = self.uncertainties(&ks, &c_abs, &a_abs, &spectrum, opts, raw.rss);
-        if sds.is_none() {
+        let sds = want_sds
+            .then(|| self.uncertainties(&ks, &c_abs, &a_abs, &spectrum, opts, raw.rss))
+            .flatten();
+        if want_sds && sds.is_none() {
             flags.push(DecayFlag::SingularCovariance);
         }
         let span = self.curve.t_s[self.m - 1] - self.curve.t_s[0];
