@@ -175,6 +175,10 @@ pub struct FitOptions {
     /// the fixed choice). Default
     /// [`CONTINUUM_KNOT_FWHM`].
     pub continuum_knots_fwhm: Vec<f64>,
+    /// Knot spacings (× FWHM) of the per-channel continuum spectra seen through the passband
+    /// ([`crate::lvf::passband_continuum`]) among the `Auto` candidates; empty: none. Default
+    /// [`PASSBAND_KNOT_FWHM`].
+    pub passband_knots_fwhm: Vec<f64>,
     /// The camera's sensitivities, when known: adds continuum candidates whose spectrum is
     /// shared by the three channels ([`crate::lvf::shared_continuum`]).
     pub camera: Option<CameraResponse>,
@@ -195,6 +199,7 @@ impl Default for FitOptions {
             background: BackgroundChoice::Auto,
             radial_falloff: true,
             continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
+            passband_knots_fwhm: PASSBAND_KNOT_FWHM.to_vec(),
             camera: None,
             fixed_falloff: None,
         }
@@ -869,13 +874,13 @@ pub fn calibrate_whole_profile(
     }
     // Per-channel continuum spectra seen through the passband (crate::lvf::passband_continuum),
     // on the range the passband sees from the profile's ends.
-    {
+    if !opts.passband_knots_fwhm.is_empty() {
         let l0 = full.lambda(&plain_best.theta, -1.0);
         let l1 = full.lambda(&plain_best.theta, 1.0);
         let reach = PASSBAND_REACH_FWHM * fwhm_plain;
         let (lo, hi) = (l0.min(l1) - reach, l0.max(l1) + reach);
         full.passband_range = Some((lo, hi));
-        for knot in PASSBAND_KNOT_FWHM {
+        for &knot in &opts.passband_knots_fwhm {
             let t = BackgroundTerms {
                 passband_intervals: PassbandBasis::intervals_for(lo, hi, fwhm_plain, knot),
                 ..BackgroundTerms::LINEAR
