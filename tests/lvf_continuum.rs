@@ -228,22 +228,57 @@ fn a_listed_line_the_image_does_not_show_does_not_bias_the_map_and_is_reported_a
     }
 }
 
+/// Weak violet lines (405/408 nm at 1/20 of their power) under a 10 % flat continuum and
+/// quadratic vignetting 0.3, 1 % noise, on every camera. The SONY NEX-5N rises 7–10× in all
+/// three channels between 400 and 410 nm, right under those lines: the continuum there is an
+/// edge σ_g wide that the spline in u could not draw, and with the violet lines too weak to
+/// anchor the blue end the misfit moved the map by 0.115 / 0.240 nm. The continuum seen through
+/// the passband (`lvf::passband_continuum`) draws it (0.003 / 0.007 nm on the grid; seed 7:
+/// ≤ 0.037 nm on all three), so the issue's 0.15 nm is asserted.
 #[test]
-fn weak_violet_mercury_lines_still_calibrate_within_the_grid_bound() {
+fn weak_violet_mercury_lines_calibrate_within_the_issue_bound_on_three_cameras() {
     let Some(db) = database() else { return };
-    let s = spec(
-        Lamp::mercury_weak_violet(),
-        camera(&db, CAMERAS[1]),
-        0.01,
-        (VignettingShape::Quadratic, 0.3),
-        Some((ContinuumShape::Flat, 0.10)),
-        7,
-    );
-    let (_, e) = calibrate(&s, &Lamp::mercury()).unwrap();
-    assert!(
-        e[0].abs() <= HG_GRID_BOUND_NM && e[1].abs() <= HG_GRID_BOUND_NM,
-        "{e:?}"
-    );
+    for name in CAMERAS {
+        let s = spec(
+            Lamp::mercury_weak_violet(),
+            camera(&db, name),
+            0.01,
+            (VignettingShape::Quadratic, 0.3),
+            Some((ContinuumShape::Flat, 0.10)),
+            7,
+        );
+        let (_, e) = calibrate(&s, &Lamp::mercury()).unwrap();
+        assert!(
+            e[0].abs() <= HG_TOL_NM && e[1].abs() <= HG_TOL_NM,
+            "{name}: {e:?}"
+        );
+    }
+}
+
+/// An off-centre fall-off 0.3 (centre at ¾ width, ⅓ height) without a flat, 10 % flat
+/// continuum, 1 % noise, every camera. The strips across the axis see the fall-off's curvature
+/// but not its centre along the axis: what remains is a tilt t of ln V, which shifts every blob
+/// by σ_g²·t ≈ 0.08 nm (docs/performance.md) — inside the issue's 0.15 nm, so that is asserted
+/// (seed 5: up to 0.146 nm, Canon 5D Mark II at 700 nm — met, narrowly); the NEX-5N's 0.171 nm
+/// before the passband continuum was the continuum misfit on top.
+#[test]
+fn an_off_centre_fall_off_without_a_flat_stays_within_the_issue_bound_on_three_cameras() {
+    let Some(db) = database() else { return };
+    for name in CAMERAS {
+        let s = spec(
+            Lamp::mercury(),
+            camera(&db, name),
+            0.01,
+            (VignettingShape::Offcentre, 0.3),
+            Some((ContinuumShape::Flat, 0.10)),
+            5,
+        );
+        let (_, e) = calibrate(&s, &Lamp::mercury()).unwrap();
+        assert!(
+            e[0].abs() <= HG_TOL_NM && e[1].abs() <= HG_TOL_NM,
+            "{name}: {e:?}"
+        );
+    }
 }
 
 /// KNOWN FAILURE (issue 12 not met here): an unlisted line at 490 nm of half the power of the

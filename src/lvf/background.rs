@@ -53,6 +53,10 @@ pub struct BackgroundTerms {
     /// Intervals of the continuum spectrum shared by the three channels through a known camera
     /// (0: none; see [`crate::lvf::shared_continuum`]). Exclusive with `continuum_intervals`.
     pub shared_intervals: usize,
+    /// Intervals of a per-channel continuum spectrum (cubic B-spline in wavelength) seen through
+    /// the fitted passband (0: none; see [`crate::lvf::passband_continuum`]). Exclusive with
+    /// the other continua.
+    pub passband_intervals: usize,
 }
 
 impl BackgroundTerms {
@@ -61,25 +65,33 @@ impl BackgroundTerms {
         continuum_intervals: 0,
         falloff_degree: 0,
         shared_intervals: 0,
+        passband_intervals: 0,
     };
 
-    /// Number of continuum basis functions per channel.
+    /// Number of per-channel continuum basis functions (spline in u or spectrum seen through
+    /// the passband).
     pub fn n_continuum(&self) -> usize {
-        if self.continuum_intervals == 0 {
-            0
-        } else {
-            self.continuum_intervals + 3
+        match (self.continuum_intervals, self.passband_intervals) {
+            (0, 0) => 0,
+            (0, p) => p + 3,
+            (c, _) => c + 3,
         }
     }
 
-    /// Whether a continuum of either kind (per channel or shared) is fitted.
+    /// Whether a continuum of any kind (per channel or shared) is fitted.
     pub fn has_continuum(&self) -> bool {
-        self.continuum_intervals > 0 || self.shared_intervals > 0
+        self.continuum_intervals > 0 || self.shared_intervals > 0 || self.passband_intervals > 0
     }
 
     /// Short name for reports: `linear`, `falloff2`, `continuum6`, `continuum6+falloff2`,
-    /// `shared-spectrum12`.
+    /// `shared-spectrum12`, `passband-continuum36`.
     pub fn name(&self) -> String {
+        if self.passband_intervals > 0 {
+            return match self.falloff_degree {
+                0 => format!("passband-continuum{}", self.passband_intervals),
+                f => format!("passband-continuum{}+falloff{f}", self.passband_intervals),
+            };
+        }
         if self.shared_intervals > 0 {
             return match self.falloff_degree {
                 0 => format!("shared-spectrum{}", self.shared_intervals),

@@ -186,7 +186,9 @@ pub struct BackgroundReport {
     pub offset: [[f64; 2]; 3],
     /// Intervals of the cubic B-spline continuum on u ∈ [−1, 1] (0: none).
     pub continuum_intervals: usize,
-    /// Its coefficients (≥ 0) per channel.
+    /// Its coefficients (≥ 0) per channel; when `model` is `passband-continuumK`, those of the
+    /// per-channel spectrum's spline in wavelength (K intervals, `continuum_intervals` 0; see
+    /// [`crate::lvf::passband_continuum`]).
     pub continuum_coefficients: [Vec<f64>; 3],
     /// The continuum spectrum shared by the three channels through the camera (`null` unless
     /// that model was chosen; see [`crate::lvf::shared_continuum`]).

@@ -31,6 +31,7 @@ use crate::lvf::calibration::{
     ProfileCurves, UnexplainedLine,
 };
 use crate::lvf::lamp::Lamp;
+use crate::lvf::passband_continuum::{PassbandBasis, PASSBAND_KNOT_FWHM, PASSBAND_REACH_FWHM};
 use crate::lvf::profile::Profile;
 use crate::lvf::shared_continuum::{solve_joint, CameraResponse, SharedBasis, SHARED_KNOT_FWHM};
 use crate::math::minimize::brent_min;
@@ -175,6 +176,10 @@ pub struct FitOptions {
     /// the fixed choice). Default
     /// [`CONTINUUM_KNOT_FWHM`].
     pub continuum_knots_fwhm: Vec<f64>,
+    /// Knot spacings (× FWHM) of the per-channel continuum spectra seen through the passband
+    /// ([`crate::lvf::passband_continuum`]) among the `Auto` candidates; empty: none. Default
+    /// [`PASSBAND_KNOT_FWHM`].
+    pub passband_knots_fwhm: Vec<f64>,
     /// The camera's sensitivities, when known: adds continuum candidates whose spectrum is
     /// shared by the three channels ([`crate::lvf::shared_continuum`]).
     pub camera: Option<CameraResponse>,
@@ -195,6 +200,7 @@ impl Default for FitOptions {
             background: BackgroundChoice::Auto,
             radial_falloff: true,
             continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
+            passband_knots_fwhm: PASSBAND_KNOT_FWHM.to_vec(),
             camera: None,
             fixed_falloff: None,
         }
@@ -297,6 +303,11 @@ pub(crate) struct Problem<'a> {
     camera: Option<(&'a CameraResponse, f64, f64)>,
     /// The shared continuum's basis when `terms.shared_intervals > 0`.
     shared: Option<SharedBasis>,
+    /// Wavelength range (nm) of a passband continuum, if one may be used.
+    passband_range: Option<(f64, f64)>,
+    /// The passband continuum's basis when `terms.passband_intervals > 0`
+    /// ([`crate::lvf::passband_continuum`]).
+    passband_basis: Option<PassbandBasis>,
 }
 
 /// Evaluation of θ: residuals (channel-major), linear coefficients per channel, SSE.
@@ -340,6 +351,8 @@ impl<'a> Problem<'a> {
             vfix,
             camera: None,
             shared: None,
+            passband_range: None,
+            passband_basis: None,
         }
     }
 
@@ -372,6 +385,23 @@ impl<'a> Problem<'a> {
                 (Some((cam, lo, hi)), k) if k > 0 => Some(SharedBasis::new(cam, lo, hi, k)),
                 _ => None,
             },
+            passband_range: self.passband_range,
+            passband_basis: match (self.passband_range, terms.passband_intervals) {
+                (Some((lo, hi)), k) if k > 0 => Some(PassbandBasis::new(lo, hi, k)),
+                _ => None,
+            },
+        }
+    }
+
+    /// The per-channel continuum basis at every sample for θ, row-major n × n_continuum: the
+    /// spline in u (independent of θ) or the passband continuum (seen through θ's map and FWHM).
+    fn continuum_rows(&self, theta: &[f64]) -> std::borrow::Cow<'_, [f64]> {
+        match &self.passband_basis {
+            Some(b) => {
+                let lams: Vec<f64> = self.u.iter().map(|&u| self.lambda(theta, u)).collect();
+                std::borrow::Cow::Owned(b.rows(&lams, self.fwhm(theta), self.passband))
+            }
+            None => std::borrow::Cow::Borrowed(&self.spline),
         }
     }
 
@@ -422,6 +452,7 @@ impl<'a> Problem<'a> {
         let k = N_BG + lines.len() + nc;
         let fwhm = self.fwhm(theta);
         let v = self.falloff_coefficients(theta);
+        let cont = self.continuum_rows(theta);
         let mut phi = DMatrix::zeros(n, k);
         for (i, &u) in self.u.iter().enumerate() {
             let lam = self.lambda(theta, u);
@@ -432,7 +463,7 @@ impl<'a> Problem<'a> {
                 phi[(i, N_BG + j)] = f * self.passband.eval(l - lam, fwhm);
             }
             for j in 0..nc {
-                phi[(i, N_BG + lines.len() + j)] = f * self.spline[i * nc + j];
+                phi[(i, N_BG + lines.len() + j)] = f * cont[i * nc + j];
             }
         }
         phi
@@ -830,17 +861,34 @@ pub fn calibrate_whole_profile(
     let with_k = |continuum: bool, falloff_degree: usize| BackgroundTerms {
         continuum_intervals: if continuum { k_coarse } else { 0 },
         falloff_degree,
-        shared_intervals: 0,
+        ..BackgroundTerms::LINEAR
     };
     let mut auto = vec![with_k(false, 0), with_k(true, 0)];
     for &knot in &knots[1..] {
         let t = BackgroundTerms {
             continuum_intervals: k_of(knot),
-            falloff_degree: 0,
-            shared_intervals: 0,
+            ..BackgroundTerms::LINEAR
         };
         if !auto.contains(&t) {
             auto.push(t);
+        }
+    }
+    // Per-channel continuum spectra seen through the passband (crate::lvf::passband_continuum),
+    // on the range the passband sees from the profile's ends.
+    if !opts.passband_knots_fwhm.is_empty() {
+        let l0 = full.lambda(&plain_best.theta, -1.0);
+        let l1 = full.lambda(&plain_best.theta, 1.0);
+        let reach = PASSBAND_REACH_FWHM * fwhm_plain;
+        let (lo, hi) = (l0.min(l1) - reach, l0.max(l1) + reach);
+        full.passband_range = Some((lo, hi));
+        for &knot in &opts.passband_knots_fwhm {
+            let t = BackgroundTerms {
+                passband_intervals: PassbandBasis::intervals_for(lo, hi, fwhm_plain, knot),
+                ..BackgroundTerms::LINEAR
+            };
+            if !auto.contains(&t) {
+                auto.push(t);
+            }
         }
     }
     // A continuum spectrum shared by the channels, when the camera is known: its range is what
@@ -1126,10 +1174,11 @@ pub fn calibrate_whole_profile(
             .enumerate()
             .map(|(i, &u)| falloff(&vcoef, u) * pr.vfix.get(i).copied().unwrap_or(1.0))
             .collect();
+    let crow = pr.continuum_rows(&theta);
     let cont_of = |c: usize, i: usize| -> f64 {
         let a = &eval.alpha[c];
         (0..nc)
-            .map(|j| a[N_BG + pr.lines.len() + j] * pr.spline[i * nc + j])
+            .map(|j| a[N_BG + pr.lines.len() + j] * crow[i * nc + j])
             .sum::<f64>()
             * fall[i]
     };

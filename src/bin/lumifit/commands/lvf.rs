@@ -282,6 +282,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         continuum_knots_fwhm: a.continuum_knots.clone(),
         camera,
         fixed_falloff: None,
+        ..FitOptions::default()
     };
     let t = std::time::Instant::now();
     let cal = match (a.method, &flat) {
