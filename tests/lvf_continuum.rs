@@ -246,14 +246,12 @@ fn weak_violet_mercury_lines_still_calibrate_within_the_grid_bound() {
     );
 }
 
-/// KNOWN FAILURE (issue 12 not met here): an unlisted line at 490 nm of half the power of the
-/// 436 nm line. The residual search (`lvf::extra_lines`) now fits a free extra line and reports
-/// it, but on the Canon 5D Mark II (seed 3) it lands at 530 nm, not 490: the fit with the list
-/// alone has already moved the map and the continuum, the blob is then taken where the residual
-/// is largest and its wavelength is tied to that wrong map (refined only ±FWHM/2), and the map
-/// stays off by +1.2 / −1.9 nm (was 2–3 nm). Run with `--ignored` to see it.
+/// An unlisted line at 490 nm of half the power of the 436 nm line, on three cameras: found in
+/// the residual of the coarsest continuum, fitted with a free wavelength jointly with the map
+/// (`lvf::unlisted`), reported with `fitted: true` and a warning, and the map stays within the
+/// issue's bound (was 530 nm and a map 1–2 nm off when the line's wavelength was tied to the map
+/// the list alone had moved).
 #[test]
-#[ignore = "known failure: the unlisted line is fitted and reported, but at the wrong wavelength (530 instead of 490 nm) and the map stays biased by 1–2 nm"]
 fn a_line_missing_from_the_lamp_list_is_reported_not_absorbed() {
     let Some(db) = database() else { return };
     let mut lamp = Lamp::mercury();

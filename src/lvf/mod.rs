@@ -38,6 +38,7 @@ pub mod profile;
 pub mod shared_continuum;
 pub mod synth;
 pub mod transmission;
+pub(crate) mod unlisted;
 
 pub use background::{BackgroundChoice, BackgroundTerms};
 pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
