@@ -301,14 +301,14 @@ pub(crate) struct Problem<'a> {
 /// Evaluation of θ: residuals (channel-major), linear coefficients per channel, SSE.
 pub(crate) struct Eval {
     pub(crate) residual: Vec<f64>,
-    alpha: [DVector<f64>; 3],
+    pub(crate) alpha: [DVector<f64>; 3],
     pub(crate) sse: f64,
     pub(crate) n_active: usize,
     /// The shared continuum: β and per channel its curve (fall-off included).
     shared: Option<(Vec<f64>, [Vec<f64>; 3])>,
 }
 
-const N_BG: usize = 2;
+pub(crate) const N_BG: usize = 2;
 
 impl<'a> Problem<'a> {
     fn new(
@@ -535,7 +535,7 @@ impl<'a> Problem<'a> {
         }
     }
 
-    fn eval(&self, theta: &[f64]) -> Eval {
+    pub(crate) fn eval(&self, theta: &[f64]) -> Eval {
         self.eval_with(theta, &self.lines)
     }
 
@@ -1405,6 +1405,46 @@ pub fn calibrate_whole_profile(
                 w[1].abs()
             ));
         }
+    }
+    // A listed line the other lines put elsewhere (an unlisted line blended with it, or a wrong
+    // list entry): σ widened by how far freeing it moves the map, and a warning when the shift
+    // is significant (> 3 of its σ and > 0.3 nm) and moves the map by more than the map's own σ
+    // ([`crate::lvf::unlisted::displaced_groups`]).
+    if opts.background == BackgroundChoice::Auto {
+        use crate::lvf::unlisted as ul;
+        cal.set_bands(opts.n_bands)?;
+        let sigma_map = cal.sigma_nm_at_400.max(cal.sigma_nm_at_700);
+        let mut report = Vec::new();
+        for d in ul::displaced_groups(&pr, &theta, lines.len()) {
+            let w = [
+                u400.map_or(0.0, |u| (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()),
+                u700.map_or(0.0, |u| (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()),
+            ];
+            cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(w[0]);
+            cal.sigma_systematic_nm_at_700 = cal.sigma_systematic_nm_at_700.max(w[1]);
+            let shift = d.fitted_nm - d.centroid_nm;
+            let warned = shift.abs() > ul::DISPLACED_MIN_NM
+                && shift.abs() > ul::DISPLACED_SIGMA * d.sigma_nm
+                && w[0].max(w[1]) > sigma_map;
+            report.push(serde_json::json!({
+                "lines_nm": d.listed_nm, "centroid_nm": d.centroid_nm, "freed_nm": d.fitted_nm,
+                "freed_sigma_nm": d.sigma_nm, "delta_bic": d.delta_bic,
+                "map_change_nm_at_400_700": w, "warned": warned,
+            }));
+            if warned {
+                cal.warnings.push(format!(
+                    "lamp line {} nm (with the lines blended with it, centroid {:.2} nm) is not where the other lines put it: freed, it sits at {:.2} ± {:.2} nm (BIC lower by {:.0}); an unlisted line blended with it (closer than the passband separates) or a wrong list entry; the map is kept, and σ at 400/700 nm is widened by how far freeing the line moves it ({:.3} / {:.3} nm); check the lamp list",
+                    d.listed_nm.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(" + "),
+                    d.centroid_nm,
+                    d.fitted_nm,
+                    d.sigma_nm,
+                    d.delta_bic,
+                    w[0],
+                    w[1]
+                ));
+            }
+        }
+        cal.diagnostics["displaced_lines"] = serde_json::json!(report);
     }
     cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;

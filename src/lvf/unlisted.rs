@@ -327,3 +327,108 @@ pub(crate) fn search(problem: &Problem, fit: &Fitted) -> Search {
         blended,
     }
 }
+
+/// A listed line (with the lines blended with it) is displaced when freeing its wavelength
+/// lowers the BIC by [`crate::lvf::extra_lines::MIN_BIC_GAIN`] (then the map's σ is widened by
+/// how far freeing it moves the map); it is warned about when it also moves by more than this
+/// many of its standard errors, more than [`DISPLACED_MIN_NM`], and moves the map at 400 or 700
+/// nm by more than the map's σ before widening (under a continuum the model does not draw
+/// exactly, as a CFL's, lines shift by a fraction of the map's σ without an unlisted line) …
+pub const DISPLACED_SIGMA: f64 = 3.0;
+/// … and by more than this (nm; below it the shift is within the 0.15 nm map bound
+/// anyway and a continuum's misfit can explain it).
+pub const DISPLACED_MIN_NM: f64 = 0.3;
+/// At most this many line groups (the brightest) are checked.
+pub const DISPLACED_MAX_GROUPS: usize = 6;
+
+/// A listed line group that the other lines put elsewhere: an unlisted line blended with it
+/// (closer than the passband can separate) or a wrong list entry.
+#[derive(Debug, Clone)]
+pub(crate) struct Displaced {
+    /// The group's lines (nm) and their centroid, weighted by the fitted amplitudes.
+    pub listed_nm: Vec<f64>,
+    pub centroid_nm: f64,
+    /// Where the group sits when its wavelength is free (nm) and its standard error.
+    pub fitted_nm: f64,
+    pub sigma_nm: f64,
+    /// BIC of the fit as given minus that with the group free.
+    pub delta_bic: f64,
+    /// θ of the fit with the group free (layout of the checked problem).
+    pub theta: Vec<f64>,
+}
+
+/// Frees, one at a time, the wavelength of each listed line group of the fit `theta` of
+/// `problem` (its first `n_listed` lines; groups of lines closer than FWHM/2 move together,
+/// as one line at their amplitude-weighted centroid) jointly with the map, and returns the
+/// groups whose freeing lowers the BIC by [`crate::lvf::extra_lines::MIN_BIC_GAIN`] (see
+/// [`Displaced`]; the caller applies [`DISPLACED_SIGMA`] and [`DISPLACED_MIN_NM`] for a warning). The check the blend of an unlisted
+/// line with a listed one needs: such a blend is one blob whose centre is off the listed
+/// wavelength, which the map absorbs when the listed line is bright (the weaker lines then sit
+/// off instead), and which no residual search can separate.
+pub(crate) fn displaced_groups(problem: &Problem, theta: &[f64], n_listed: usize) -> Vec<Displaced> {
+    let fit_eval = problem.eval(theta);
+    let n = problem.n_samples();
+    let n_obs = 3 * n;
+    let ln_n = (n_obs as f64).ln();
+    let bic_of = |sse: f64, k: usize| n_obs as f64 * (sse.max(1e-300) / n_obs as f64).ln() + k as f64 * ln_n;
+    let bic0 = bic_of(fit_eval.sse, theta.len() + fit_eval.n_active);
+    let fwhm = problem.fwhm(theta);
+    let lines = problem.lines().to_vec();
+    let u = problem.u();
+    let lams: Vec<f64> = u.iter().map(|&u| problem.lambda(theta, u)).collect();
+    let lo = lams.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = lams.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let amp = |i: usize| -> f64 {
+        (0..3)
+            .map(|c| fit_eval.alpha[c][crate::lvf::fit::N_BG + i])
+            .sum::<f64>()
+    };
+    let listed: Vec<usize> = (0..n_listed.min(lines.len()))
+        .filter(|&i| lines[i] > lo && lines[i] < hi)
+        .collect();
+    let in_nm: Vec<f64> = listed.iter().map(|&i| lines[i]).collect();
+    let mut groups: Vec<(Vec<usize>, f64, f64)> = crate::lvf::fit::group_lines(&in_nm, 0.5 * fwhm)
+        .into_iter()
+        .filter_map(|g| {
+            let idx: Vec<usize> = g.iter().map(|&k| listed[k]).collect();
+            let a: f64 = idx.iter().map(|&i| amp(i)).sum();
+            (a > 0.0).then(|| {
+                let c = idx.iter().map(|&i| amp(i) * lines[i]).sum::<f64>() / a;
+                (idx, c, a)
+            })
+        })
+        .collect();
+    // the map needs two other groups to stay determined
+    if groups.len() < 3 {
+        return Vec::new();
+    }
+    groups.sort_by(|a, b| b.2.total_cmp(&a.2));
+    groups.truncate(DISPLACED_MAX_GROUPS);
+    groups
+        .par_iter()
+        .filter_map(|(idx, c, _)| {
+            let rest: Vec<f64> = (0..lines.len())
+                .filter(|i| !idx.contains(i))
+                .map(|i| lines[i])
+                .collect();
+            let pr = problem.with_lines(rest);
+            let j = refine(&pr, theta, &[*c], &[(c - fwhm, c + fwhm)]);
+            let k = j.theta.len() + 1 + j.eval.n_active;
+            let delta_bic = bic0 - bic_of(j.eval.sse, k);
+            let q = j.jac.ncols();
+            let dof = n_obs.saturating_sub(k).max(1) as f64;
+            let cov = crate::fit::stats::covariance_scaled(j.jac.as_slice(), n_obs, q, j.eval.sse / dof)?;
+            let sigma = cov[(q - 1) * q + (q - 1)].max(0.0).sqrt();
+            let shift = j.free_nm[0] - c;
+            let _ = shift;
+            (delta_bic >= xl::MIN_BIC_GAIN).then(|| Displaced {
+                    listed_nm: idx.iter().map(|&i| lines[i]).collect(),
+                    centroid_nm: *c,
+                    fitted_nm: j.free_nm[0],
+                    sigma_nm: sigma,
+                    delta_bic,
+                    theta: j.theta,
+                })
+        })
+        .collect()
+}
