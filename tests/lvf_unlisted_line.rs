@@ -177,17 +177,37 @@ fn two_unlisted_lines_are_both_fitted() {
 fn lamps_whose_lines_are_all_listed_get_no_fitted_unlisted_line() {
     let Some(db) = database() else { return };
     let cases = [
-        (Lamp::mercury(), Some((ContinuumShape::Flat, 0.10)), VignettingShape::Quadratic, 0.01),
+        (
+            Lamp::mercury(),
+            Some((ContinuumShape::Flat, 0.10)),
+            VignettingShape::Quadratic,
+            0.01,
+        ),
         (
             Lamp::mercury(),
             Some((ContinuumShape::Blackbody(2700.0), 0.10)),
             VignettingShape::Cos4,
             0.01,
         ),
-        (Lamp::mercury(), Some((ContinuumShape::Flat, 0.10)), VignettingShape::Quadratic, 0.05),
+        (
+            Lamp::mercury(),
+            Some((ContinuumShape::Flat, 0.10)),
+            VignettingShape::Quadratic,
+            0.05,
+        ),
         (Lamp::mercury(), None, VignettingShape::Quadratic, 0.01),
-        (Lamp::cfl(), Some((ContinuumShape::Cfl, 0.10)), VignettingShape::Quadratic, 0.01),
-        (Lamp::cfl(), Some((ContinuumShape::Cfl, 0.10)), VignettingShape::Quadratic, 0.05),
+        (
+            Lamp::cfl(),
+            Some((ContinuumShape::Cfl, 0.10)),
+            VignettingShape::Quadratic,
+            0.01,
+        ),
+        (
+            Lamp::cfl(),
+            Some((ContinuumShape::Cfl, 0.10)),
+            VignettingShape::Quadratic,
+            0.05,
+        ),
     ];
     let mut runs = 0;
     let mut false_positives: Vec<String> = Vec::new();
@@ -259,13 +279,16 @@ fn an_unlisted_line_blended_with_a_listed_one_is_warned_and_covered_by_sigma() {
             .iter()
             .any(|w| w.contains("lamp line 404.656 nm") && w.contains("absent"));
         if violet_absent {
-            eprintln!("{name}: violet group absent, blend not detectable (not asserted): {e:?} σ {sig:?}");
+            eprintln!(
+                "{name}: violet group absent, blend not detectable (not asserted): {e:?} σ {sig:?}"
+            );
             continue;
         }
         assert!(
             cal.warnings
                 .iter()
-                .any(|w| w.contains("lamp line 435.833 nm") && w.contains("not where the other lines put it")),
+                .any(|w| w.contains("lamp line 435.833 nm")
+                    && w.contains("not where the other lines put it")),
             "{name}: {:?}",
             cal.warnings
         );

@@ -953,7 +953,10 @@ pub fn calibrate_whole_profile(
         let listed_only = chosen_pr.with_lines(lines.clone());
         let fw = chosen_pr.fwhm(&chosen_fit.theta);
         let free0 = chosen_pr.lines()[lines.len()..].to_vec();
-        let bounds: Vec<(f64, f64)> = free0.iter().map(|&l| (l - 0.5 * fw, l + 0.5 * fw)).collect();
+        let bounds: Vec<(f64, f64)> = free0
+            .iter()
+            .map(|&l| (l - 0.5 * fw, l + 0.5 * fw))
+            .collect();
         let j = crate::lvf::unlisted::refine(&listed_only, &chosen_fit.theta, &free0, &bounds);
         let mut l = lines.clone();
         l.extend(j.free_nm.iter().copied());
@@ -1417,8 +1420,12 @@ pub fn calibrate_whole_profile(
         let mut report = Vec::new();
         for d in ul::displaced_groups(&pr, &theta, lines.len()) {
             let w = [
-                u400.map_or(0.0, |u| (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()),
-                u700.map_or(0.0, |u| (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()),
+                u400.map_or(0.0, |u| {
+                    (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()
+                }),
+                u700.map_or(0.0, |u| {
+                    (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()
+                }),
             ];
             cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(w[0]);
             cal.sigma_systematic_nm_at_700 = cal.sigma_systematic_nm_at_700.max(w[1]);

@@ -365,12 +365,17 @@ pub(crate) struct Displaced {
 /// line with a listed one needs: such a blend is one blob whose centre is off the listed
 /// wavelength, which the map absorbs when the listed line is bright (the weaker lines then sit
 /// off instead), and which no residual search can separate.
-pub(crate) fn displaced_groups(problem: &Problem, theta: &[f64], n_listed: usize) -> Vec<Displaced> {
+pub(crate) fn displaced_groups(
+    problem: &Problem,
+    theta: &[f64],
+    n_listed: usize,
+) -> Vec<Displaced> {
     let fit_eval = problem.eval(theta);
     let n = problem.n_samples();
     let n_obs = 3 * n;
     let ln_n = (n_obs as f64).ln();
-    let bic_of = |sse: f64, k: usize| n_obs as f64 * (sse.max(1e-300) / n_obs as f64).ln() + k as f64 * ln_n;
+    let bic_of =
+        |sse: f64, k: usize| n_obs as f64 * (sse.max(1e-300) / n_obs as f64).ln() + k as f64 * ln_n;
     let bic0 = bic_of(fit_eval.sse, theta.len() + fit_eval.n_active);
     let fwhm = problem.fwhm(theta);
     let lines = problem.lines().to_vec();
@@ -417,18 +422,17 @@ pub(crate) fn displaced_groups(problem: &Problem, theta: &[f64], n_listed: usize
             let delta_bic = bic0 - bic_of(j.eval.sse, k);
             let q = j.jac.ncols();
             let dof = n_obs.saturating_sub(k).max(1) as f64;
-            let cov = crate::fit::stats::covariance_scaled(j.jac.as_slice(), n_obs, q, j.eval.sse / dof)?;
+            let cov =
+                crate::fit::stats::covariance_scaled(j.jac.as_slice(), n_obs, q, j.eval.sse / dof)?;
             let sigma = cov[(q - 1) * q + (q - 1)].max(0.0).sqrt();
-            let shift = j.free_nm[0] - c;
-            let _ = shift;
             (delta_bic >= xl::MIN_BIC_GAIN).then(|| Displaced {
-                    listed_nm: idx.iter().map(|&i| lines[i]).collect(),
-                    centroid_nm: *c,
-                    fitted_nm: j.free_nm[0],
-                    sigma_nm: sigma,
-                    delta_bic,
-                    theta: j.theta,
-                })
+                listed_nm: idx.iter().map(|&i| lines[i]).collect(),
+                centroid_nm: *c,
+                fitted_nm: j.free_nm[0],
+                sigma_nm: sigma,
+                delta_bic,
+                theta: j.theta,
+            })
         })
         .collect()
 }
