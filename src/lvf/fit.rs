@@ -1295,7 +1295,7 @@ pub fn calibrate_whole_profile(
         black_clipping: profile.censoring.clone(),
         sigma_includes_systematic: selection_rule == "bic",
         systematic_note: if selection_rule == "bic" {
-            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile (diagnostics.residual_correlation_length, 1 for white noise), so a smooth misfit widens it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre) and errors common to all candidates (passband shape, line list) are not included".into()
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile (diagnostics.residual_correlation_length, 1 for white noise), so a smooth misfit widens it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty), and how far the map moves when a listed line the other lines put elsewhere is freed (diagnostics.displaced_lines); a fall-off the strips cannot see (tilt, off-centre) and errors common to all candidates (passband shape, line list) are not included".into()
         } else {
             "sigma_nm_at_400/700 are statistical only (s²(JᵀJ)⁻¹ scaled by the residual's correlation length along the profile; one background model was requested, so there is no model-choice spread)".into()
         },
