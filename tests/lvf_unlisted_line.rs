@@ -17,7 +17,7 @@ use lumifit::lvf::{
 mod common;
 use common::jiang::{camera, CAMERAS};
 use common::lvf_geometry::spec;
-use common::tolerances::lvf_continuum::{HG_TOL_NM, UNEXPLAINED_POSITION_TOL_NM};
+use common::tolerances::lvf_continuum::{FITTED_UNLISTED_POSITION_TOL_NM, HG_TOL_NM};
 
 fn database() -> Option<Vec<u8>> {
     common::jiang::database("the unlisted-line checks")
@@ -100,7 +100,7 @@ fn check_found(name: &str, cal: &LvfCalibration, e: [f64; 2], truth_nm: &[f64]) 
         let near: Vec<f64> = fitted
             .iter()
             .copied()
-            .filter(|l| (l - t).abs() <= UNEXPLAINED_POSITION_TOL_NM)
+            .filter(|l| (l - t).abs() <= FITTED_UNLISTED_POSITION_TOL_NM)
             .collect();
         assert_eq!(near.len(), 1, "{name}: {t} nm not fitted once: {fitted:?}");
         assert!(
