@@ -2,18 +2,19 @@
 //!
 //! A strong line missing from the lamp list (a contaminant in the lamp, a line the list left
 //! out) is a blob the model can only explain by moving the map and the neighbouring lines, so a
-//! fit with the list alone is biased by nanometres before anything is reported. When the chosen
-//! fit's residual is well above the noise (RMS over noise > [`SEARCH_OVER_NOISE`]), the residual
-//! is searched with a matched filter — the fitted passband (times the fall-off) slid along the
-//! profile, per channel, amplitude a = Σ r·t / Σ t², significance a/(σ_c/√Σ t²) — for blobs at
-//! least [`MIN_SIGMA`] standard errors and [`MIN_RELATIVE`] of the profile's peak that lie
-//! farther than half a FWHM from every listed line. The best ([`TRIED_PER_ROUND`]) are each
-//! tried as an extra line of free wavelength: the map is refitted with it, its wavelength refined
-//! with the map held (a 1-D minimisation of the projected SSE), and the map refitted again. The
-//! line is kept when the BIC (its wavelength counted as one more parameter) falls by at least
-//! [`MIN_BIC_GAIN`]; the search then repeats on the new residual, up to [`MAX_EXTRA`] lines.
-//! Kept lines stay in the model for every background candidate, and are reported
-//! (`unexplained_lines` with `fitted: true`, a warning naming the estimated wavelength).
+//! fit with the list alone is biased by nanometres before anything is reported. When the
+//! residual of the fit with the coarsest continuum is well above the noise (RMS over noise >
+//! [`SEARCH_OVER_NOISE`]), it is searched with a matched filter — the fitted passband (times the
+//! fall-off) slid along the profile, per channel, amplitude a = Σ r·t / Σ t², significance
+//! a/(σ_c/√Σ t²) — for blobs at least [`MIN_SIGMA`] standard errors and [`MIN_RELATIVE`] of the
+//! profile's peak that are a peak of the significance and lie farther than half a FWHM from
+//! every listed line. The best ([`TRIED_PER_ROUND`]) are each tried as an extra line whose
+//! wavelength is a free parameter fitted jointly with the map ([`crate::lvf::unlisted`]:
+//! multi-start, bounded to ±2 FWHM of the blob); the line is kept when the BIC (its wavelength
+//! counted as one more parameter) falls by at least [`MIN_BIC_GAIN`], and the search repeats on
+//! the new residual, up to [`MAX_EXTRA`] lines. Kept lines stay in the model for every
+//! background candidate, and are reported (`unexplained_lines` with `fitted: true`, a warning
+//! naming the fitted wavelength).
 
 /// Residual RMS over the noise above which the residual is searched for unlisted lines (the
 /// same level at which [`crate::lvf::fit`] warns of residual structure).

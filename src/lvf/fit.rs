@@ -312,15 +312,15 @@ pub(crate) struct Problem<'a> {
 
 /// Evaluation of θ: residuals (channel-major), linear coefficients per channel, SSE.
 pub(crate) struct Eval {
-    residual: Vec<f64>,
-    alpha: [DVector<f64>; 3],
-    sse: f64,
-    n_active: usize,
+    pub(crate) residual: Vec<f64>,
+    pub(crate) alpha: [DVector<f64>; 3],
+    pub(crate) sse: f64,
+    pub(crate) n_active: usize,
     /// The shared continuum: β and per channel its curve (fall-off included).
     shared: Option<(Vec<f64>, [Vec<f64>; 3])>,
 }
 
-const N_BG: usize = 2;
+pub(crate) const N_BG: usize = 2;
 
 impl<'a> Problem<'a> {
     fn new(
@@ -407,33 +407,68 @@ impl<'a> Problem<'a> {
 
     /// The same problem with another line list (the lamp's plus unlisted lines found in the
     /// residual, [`crate::lvf::extra_lines`]).
-    fn with_lines(&self, lines: Vec<f64>) -> Problem<'a> {
+    pub(crate) fn with_lines(&self, lines: Vec<f64>) -> Problem<'a> {
         let mut p = self.with(self.n_map, self.terms);
         p.lines = lines;
         p
+    }
+
+    /// Number of map coefficients (2 linear, 3 quadratic).
+    pub(crate) fn n_map(&self) -> usize {
+        self.n_map
+    }
+
+    /// Number of profile samples per channel.
+    pub(crate) fn n_samples(&self) -> usize {
+        self.u.len()
+    }
+
+    /// Normalised positions u of the samples.
+    pub(crate) fn u(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// The three channels' profiles.
+    pub(crate) fn data(&self) -> [&'a [f64]; 3] {
+        self.y
+    }
+
+    /// Line wavelengths of the model (nm).
+    pub(crate) fn lines(&self) -> &[f64] {
+        &self.lines
+    }
+
+    /// The fixed fall-off at every sample, or empty.
+    pub(crate) fn vfix(&self) -> &[f64] {
+        &self.vfix
+    }
+
+    /// The passband shape.
+    pub(crate) fn passband(&self) -> &Passband {
+        self.passband
     }
 
     fn n_theta(&self) -> usize {
         self.n_map + 1 + self.terms.falloff_degree
     }
 
-    fn lambda(&self, theta: &[f64], u: f64) -> f64 {
+    pub(crate) fn lambda(&self, theta: &[f64], u: f64) -> f64 {
         theta[..self.n_map]
             .iter()
             .rev()
             .fold(0.0, |acc, c| acc * u + c)
     }
 
-    fn fwhm(&self, theta: &[f64]) -> f64 {
+    pub(crate) fn fwhm(&self, theta: &[f64]) -> f64 {
         theta[self.n_map]
     }
 
-    fn falloff_coefficients<'t>(&self, theta: &'t [f64]) -> &'t [f64] {
+    pub(crate) fn falloff_coefficients<'t>(&self, theta: &'t [f64]) -> &'t [f64] {
         &theta[self.n_map + 1..]
     }
 
     /// θ of this problem from θ of another (map, FWHM kept; fall-off kept where both have it).
-    fn theta_from(&self, other: &Problem, theta: &[f64]) -> Vec<f64> {
+    pub(crate) fn theta_from(&self, other: &Problem, theta: &[f64]) -> Vec<f64> {
         let mut t = vec![0.0; self.n_theta()];
         let k = self.n_map.min(other.n_map);
         t[..k].copy_from_slice(&theta[..k]);
@@ -469,7 +504,7 @@ impl<'a> Problem<'a> {
         phi
     }
 
-    fn eval_with(&self, theta: &[f64], lines: &[f64]) -> Eval {
+    pub(crate) fn eval_with(&self, theta: &[f64], lines: &[f64]) -> Eval {
         let phi = self.design(theta, lines);
         if let Some(sb) = &self.shared {
             return self.eval_shared(theta, &phi, sb);
@@ -532,13 +567,13 @@ impl<'a> Problem<'a> {
         }
     }
 
-    fn eval(&self, theta: &[f64]) -> Eval {
+    pub(crate) fn eval(&self, theta: &[f64]) -> Eval {
         self.eval_with(theta, &self.lines)
     }
 
     /// Inside the domain: finite, 1 < FWHM < 200 nm, a non-vanishing slope, and a fall-off
     /// that stays between 0.05 and 5 over the profile.
-    fn valid(&self, theta: &[f64]) -> bool {
+    pub(crate) fn valid(&self, theta: &[f64]) -> bool {
         let f = self.fwhm(theta);
         let v = self.falloff_coefficients(theta);
         theta.iter().all(|v| v.is_finite())
@@ -602,7 +637,7 @@ impl<'a> Problem<'a> {
     }
 
     /// BIC = N·ln(SSE/N) + k·ln N of a fit of this problem.
-    fn bic(&self, fit: &Fitted) -> f64 {
+    pub(crate) fn bic(&self, fit: &Fitted) -> f64 {
         let n = (3 * self.u.len()) as f64;
         let k = (self.n_theta() + fit.eval.n_active) as f64;
         n * (fit.eval.sse.max(1e-300) / n).ln() + k * n.ln()
@@ -611,10 +646,10 @@ impl<'a> Problem<'a> {
 
 /// A refined θ with its evaluation, Jacobian and iteration count.
 pub(crate) struct Fitted {
-    theta: Vec<f64>,
-    eval: Eval,
-    jac: DMatrix<f64>,
-    iterations: usize,
+    pub(crate) theta: Vec<f64>,
+    pub(crate) eval: Eval,
+    pub(crate) jac: DMatrix<f64>,
+    pub(crate) iterations: usize,
 }
 
 /// The projected problem of θ for [`fit::lm`](crate::fit::lm): residuals of all three channels
@@ -928,19 +963,59 @@ pub fn calibrate_whole_profile(
     // A strong line the lamp list lacks would bias every candidate: search the chosen fit's
     // residual, and when lines are found, choose the background again with them in the model.
     // Only when the background is chosen (`Auto`): a requested model is fitted as asked.
-    let extra = if opts.background == BackgroundChoice::Auto {
-        search_unlisted_lines(&chosen_pr, &chosen_fit, ln_n)
+    // The search runs in the coarsest continuum's fit when a finer one was chosen (a fine
+    // continuum element takes up part of a line-wide blob), and fits each unlisted line with a
+    // free wavelength jointly with the map ([`crate::lvf::unlisted`]).
+    let search = if opts.background == BackgroundChoice::Auto {
+        let coarse = others.iter().find(|(cpr, _, _)| {
+            chosen_pr.terms.continuum_intervals > k_coarse
+                && cpr.terms.continuum_intervals == k_coarse
+                && cpr.terms.falloff_degree == chosen_pr.terms.falloff_degree
+        });
+        let (spr, sfit) = coarse.map_or((&chosen_pr, &chosen_fit), |(p, f, _)| (p, f));
+        let found = crate::lvf::unlisted::search(spr, sfit);
+        let theta_x = full.theta_from(spr, &found.theta);
+        let blended_shift: Vec<[f64; 2]> = found
+            .blended
+            .iter()
+            .map(|b| {
+                let at = |u: f64| spr.lambda(&b.theta, u) - spr.lambda(&sfit.theta, u);
+                [at(-1.0), at(1.0)]
+            })
+            .collect();
+        Some((found, theta_x, blended_shift))
     } else {
-        Vec::new()
+        None
     };
+    let extra: Vec<crate::lvf::unlisted::Found> =
+        search.as_ref().map_or(Vec::new(), |s| s.0.found.clone());
     if !extra.is_empty() {
         let mut l = lines.clone();
         l.extend(extra.iter().map(|e| e.nm));
         let full_x = full.with_lines(l);
-        let x_start = full.theta_from(&chosen_pr, &extra[extra.len() - 1].theta);
+        let x_start = search.as_ref().map_or(Vec::new(), |s| s.1.clone());
         let starts_x: Vec<&[f64]> = vec![&x_start, &plain_best.theta];
         (chosen_pr, chosen_fit, best_bic, others) =
             fit_candidates(&candidates, &full_x, &starts_x, extra.len(), ln_n);
+        // the chosen background refined once more with the unlisted wavelengths free, so the
+        // map's covariance carries their uncertainty
+        let listed_only = chosen_pr.with_lines(lines.clone());
+        let fw = chosen_pr.fwhm(&chosen_fit.theta);
+        let free0 = chosen_pr.lines()[lines.len()..].to_vec();
+        let bounds: Vec<(f64, f64)> = free0
+            .iter()
+            .map(|&l| (l - 0.5 * fw, l + 0.5 * fw))
+            .collect();
+        let j = crate::lvf::unlisted::refine(&listed_only, &chosen_fit.theta, &free0, &bounds);
+        let mut l = lines.clone();
+        l.extend(j.free_nm.iter().copied());
+        chosen_pr = chosen_pr.with_lines(l);
+        chosen_fit = Fitted {
+            theta: j.theta,
+            eval: j.eval,
+            jac: j.jac,
+            iterations: j.iterations,
+        };
     }
     let n_obs = 3 * profile.px.len();
 
@@ -1013,7 +1088,8 @@ pub fn calibrate_whole_profile(
         jac,
         iterations,
     } = chosen;
-    let p = theta.len();
+    // parameters: θ plus any unlisted wavelengths refined with it (columns of the Jacobian)
+    let p = jac.ncols();
     let deg = pr.n_map;
     let dof = n_obs.saturating_sub(p + eval.n_active).max(1) as f64;
     let cov_theta = covariance(&jac, eval.sse, dof).ok_or_else(|| Error::Numerical {
@@ -1297,7 +1373,7 @@ pub fn calibrate_whole_profile(
         black_clipping: profile.censoring.clone(),
         sigma_includes_systematic: selection_rule == "bic",
         systematic_note: if selection_rule == "bic" {
-            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty), and how far the map moves when a listed line the other lines put elsewhere is freed (diagnostics.displaced_lines); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
         } else {
             "sigma_nm_at_400/700 are statistical only (the sandwich covariance with a heteroscedasticity- and autocorrelation-consistent middle, Newey–West; one background model was requested, so there is no model-choice spread)".into()
         },
@@ -1390,12 +1466,77 @@ pub fn calibrate_whole_profile(
         });
         cal.warnings.push(format!(
             "unexplained line near {:.1} nm (px {:.0}): a blob {:.1} % of the peak ({:.0}σ in the residual) that no line of lamp '{}' explains; it was fitted as an extra line of free wavelength so that it does not bias the map (add it to the lamp list, or exclude it with --roi)",
-            x.nm,
-            cal.map.inverse(x.nm).unwrap_or(f64::NAN),
+            pr.lines[lines.len() + e],
+            cal.map.inverse(pr.lines[lines.len() + e]).unwrap_or(f64::NAN),
             100.0 * a / peak,
             x.blob.significance,
             lamp.name
         ));
+    }
+    // Unlisted lines that merged with a listed one: not separable, so the map is reported with
+    // σ widened by how far such a line moves it (linear in u between the profile's ends).
+    if let Some((s, _, shift)) = &search {
+        for (b, d) in s.blended.iter().zip(shift) {
+            let at = |u: f64| 0.5 * (1.0 - u) * d[0] + 0.5 * (1.0 + u) * d[1];
+            let w = [u400.map_or(0.0, at), u700.map_or(0.0, at)];
+            cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(w[0].abs());
+            cal.sigma_systematic_nm_at_700 = cal.sigma_systematic_nm_at_700.max(w[1].abs());
+            cal.warnings.push(format!(
+                "a blob {:.1} % of the peak ({:.0}σ in the residual) near {:.1} nm is best explained by a second line at {:.1} nm that cannot be separated from lamp line {} nm (closer than {} FWHM): it was not fitted; σ at 400/700 nm is widened by how far it moves the map ({:.3} / {:.3} nm); check the lamp list",
+                100.0 * b.blob.relative,
+                b.blob.significance,
+                b.blob.nm,
+                b.nm,
+                b.listed_nm,
+                crate::lvf::unlisted::BLEND_FWHM,
+                w[0].abs(),
+                w[1].abs()
+            ));
+        }
+    }
+    // A listed line the other lines put elsewhere (an unlisted line blended with it, or a wrong
+    // list entry): σ widened by how far freeing it moves the map, and a warning when the shift
+    // is significant (> 3 of its σ and > 0.3 nm) and moves the map by more than the map's own σ
+    // ([`crate::lvf::unlisted::displaced_groups`]).
+    if opts.background == BackgroundChoice::Auto {
+        use crate::lvf::unlisted as ul;
+        cal.set_bands(opts.n_bands)?;
+        let sigma_map = cal.sigma_nm_at_400.max(cal.sigma_nm_at_700);
+        let mut report = Vec::new();
+        for d in ul::displaced_groups(&pr, &theta, lines.len()) {
+            let w = [
+                u400.map_or(0.0, |u| {
+                    (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()
+                }),
+                u700.map_or(0.0, |u| {
+                    (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()
+                }),
+            ];
+            cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(w[0]);
+            cal.sigma_systematic_nm_at_700 = cal.sigma_systematic_nm_at_700.max(w[1]);
+            let shift = d.fitted_nm - d.centroid_nm;
+            let warned = shift.abs() > ul::DISPLACED_MIN_NM
+                && shift.abs() > ul::DISPLACED_SIGMA * d.sigma_nm
+                && w[0].max(w[1]) > sigma_map;
+            report.push(serde_json::json!({
+                "lines_nm": d.listed_nm, "centroid_nm": d.centroid_nm, "freed_nm": d.fitted_nm,
+                "freed_sigma_nm": d.sigma_nm, "delta_bic": d.delta_bic,
+                "map_change_nm_at_400_700": w, "warned": warned,
+            }));
+            if warned {
+                cal.warnings.push(format!(
+                    "lamp line {} nm (with the lines blended with it, centroid {:.2} nm) is not where the other lines put it: freed, it sits at {:.2} ± {:.2} nm (BIC lower by {:.0}); an unlisted line blended with it (closer than the passband separates) or a wrong list entry; the map is kept, and σ at 400/700 nm is widened by how far freeing the line moves it ({:.3} / {:.3} nm); check the lamp list",
+                    d.listed_nm.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(" + "),
+                    d.centroid_nm,
+                    d.fitted_nm,
+                    d.sigma_nm,
+                    d.delta_bic,
+                    w[0],
+                    w[1]
+                ));
+            }
+        }
+        cal.diagnostics["displaced_lines"] = serde_json::json!(report);
     }
     cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;
@@ -1436,78 +1577,6 @@ fn fit_candidates<'a>(
     let best_bic = fitted[best_i].2;
     let (chosen_pr, chosen_fit, _) = fitted.swap_remove(best_i);
     (chosen_pr, chosen_fit, best_bic, fitted)
-}
-
-/// An unlisted line kept by [`search_unlisted_lines`]: its wavelength, the blob that suggested
-/// it, and θ of the fit that kept it.
-struct Unlisted {
-    nm: f64,
-    blob: crate::lvf::extra_lines::Blob,
-    theta: Vec<f64>,
-}
-
-/// Unlisted lines in the residual of `fit`, each kept only when it lowers the BIC by
-/// [`extra_lines::MIN_BIC_GAIN`](crate::lvf::extra_lines::MIN_BIC_GAIN) (see
-/// [`crate::lvf::extra_lines`]); `ln_n` is the BIC's penalty per parameter.
-fn search_unlisted_lines(pr: &Problem, fit: &Fitted, ln_n: f64) -> Vec<Unlisted> {
-    use crate::lvf::extra_lines as xl;
-    let n = pr.u.len();
-    let noise: [f64; 3] = std::array::from_fn(|c| profile_noise(pr.y[c]));
-    let noise_rms = (noise.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
-    let peak = (0..3)
-        .flat_map(|c| pr.y[c].iter().copied())
-        .fold(f64::MIN, f64::max)
-        .max(1e-300);
-    let mut found: Vec<Unlisted> = Vec::new();
-    let mut cur = pr.with_lines(pr.lines.clone());
-    let mut theta = fit.theta.clone();
-    let mut eval = cur.eval(&theta);
-    let mut bic = pr.bic(fit);
-    while found.len() < xl::MAX_EXTRA {
-        let over = (eval.sse / (3 * n) as f64).sqrt() / noise_rms.max(1e-12 * peak);
-        if over <= xl::SEARCH_OVER_NOISE {
-            break;
-        }
-        let lams: Vec<f64> = cur.u.iter().map(|&u| cur.lambda(&theta, u)).collect();
-        let fwhm = cur.fwhm(&theta);
-        let v = cur.falloff_coefficients(&theta);
-        let scale: Vec<f64> = (0..n)
-            .map(|i| falloff(v, cur.u[i]) * cur.vfix.get(i).copied().unwrap_or(1.0))
-            .collect();
-        let g = |d: f64| cur.passband.eval(d, fwhm);
-        let score = xl::matched_filter(&lams, &scale, &eval.residual, &g, 2.0 * fwhm, noise, peak);
-        let mut best: Option<(Problem, Fitted, f64, Unlisted)> = None;
-        for b in xl::blobs(&score, &lams, fwhm, &cur.lines) {
-            let mut lines = cur.lines.clone();
-            lines.push(b.nm);
-            let k = lines.len() - 1;
-            let p1 = cur.with_lines(lines.clone());
-            let f1 = p1.levenberg_marquardt(&theta);
-            let cost = |d: f64| {
-                let mut l = lines.clone();
-                l[k] = b.nm + d;
-                p1.eval_with(&f1.theta, &l).sse
-            };
-            lines[k] = b.nm + brent_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-3);
-            let p2 = cur.with_lines(lines.clone());
-            let f2 = p2.levenberg_marquardt(&f1.theta);
-            let b2 = p2.bic(&f2) + (found.len() + 1) as f64 * ln_n;
-            if b2 < bic - xl::MIN_BIC_GAIN && best.as_ref().is_none_or(|x| b2 < x.2) {
-                let u = Unlisted {
-                    nm: lines[k],
-                    blob: b,
-                    theta: f2.theta.clone(),
-                };
-                best = Some((p2, f2, b2, u));
-            }
-        }
-        let Some((p2, f2, b2, u)) = best else {
-            break;
-        };
-        (cur, theta, eval, bic) = (p2, f2.theta, f2.eval, b2);
-        found.push(u);
-    }
-    found
 }
 
 /// The fit whose residual is searched for unexplained lines.

@@ -40,6 +40,7 @@ pub mod shared_continuum;
 pub mod sigma;
 pub mod synth;
 pub mod transmission;
+pub(crate) mod unlisted;
 
 pub use background::{BackgroundChoice, BackgroundTerms};
 pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
