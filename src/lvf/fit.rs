@@ -588,28 +588,19 @@ impl<'a> Problem<'a> {
 
     fn jacobian(&self, theta: &[f64]) -> DMatrix<f64> {
         let p = theta.len();
-        let cols: Vec<Vec<f64>> = (0..p)
-            .into_par_iter()
-            .map(|j| {
-                let h = if j < self.n_map {
+        let cols = central_difference_columns(
+            theta,
+            |j| {
+                if j < self.n_map {
                     1e-4 * theta[j].abs().max(1.0)
                 } else if j == self.n_map {
                     1e-5 * theta[j].abs().max(1.0)
                 } else {
                     1e-5
-                };
-                let mut tp = theta.to_vec();
-                let mut tm = theta.to_vec();
-                tp[j] += h;
-                tm[j] -= h;
-                let rp = self.eval(&tp).residual;
-                let rm = self.eval(&tm).residual;
-                rp.iter()
-                    .zip(&rm)
-                    .map(|(a, b)| (a - b) / (2.0 * h))
-                    .collect()
-            })
-            .collect();
+                }
+            },
+            |t| self.eval(t).residual,
+        );
         let m = cols[0].len();
         DMatrix::from_fn(m, p, |i, j| cols[j][i])
     }
@@ -968,8 +959,8 @@ pub fn calibrate_whole_profile(
     // free wavelength jointly with the map ([`crate::lvf::unlisted`]).
     let search = if opts.background == BackgroundChoice::Auto {
         let coarse = others.iter().find(|(cpr, _, _)| {
-            chosen_pr.terms.continuum_intervals > k_coarse
-                && cpr.terms.continuum_intervals == k_coarse
+            finer_than_coarse(&chosen_pr.terms, k_coarse)
+                && is_coarse(&cpr.terms, k_coarse)
                 && cpr.terms.falloff_degree == chosen_pr.terms.falloff_degree
         });
         let (spr, sfit) = coarse.map_or((&chosen_pr, &chosen_fit), |(p, f, _)| (p, f));
@@ -1425,8 +1416,8 @@ pub fn calibrate_whole_profile(
     // Unexplained lines are searched for in the residual of the coarsest continuum when a finer
     // one was chosen: a fine continuum takes up part of a missing line.
     let detect = others.iter().find(|(cpr, _, _)| {
-        pr.terms.continuum_intervals > k_coarse
-            && cpr.terms.continuum_intervals == k_coarse
+        finer_than_coarse(&pr.terms, k_coarse)
+            && is_coarse(&cpr.terms, k_coarse)
             && cpr.terms.falloff_degree == pr.terms.falloff_degree
     });
     let detect = match detect {
@@ -1503,13 +1494,24 @@ pub fn calibrate_whole_profile(
         cal.set_bands(opts.n_bands)?;
         let sigma_map = cal.sigma_nm_at_400.max(cal.sigma_nm_at_700);
         let mut report = Vec::new();
-        for d in ul::displaced_groups(&pr, &theta, lines.len()) {
+        // with a passband continuum chosen, in the best fit without one: a passband continuum
+        // trades with a line's position (false warnings on clean lamps)
+        let (dpr, dth) = if pr.terms.passband_intervals > 0 {
+            others
+                .iter()
+                .filter(|(cpr, _, _)| cpr.terms.passband_intervals == 0)
+                .min_by(|a, b| a.2.total_cmp(&b.2))
+                .map_or((&pr, &theta), |(cpr, cf, _)| (cpr, &cf.theta))
+        } else {
+            (&pr, &theta)
+        };
+        for d in ul::displaced_groups(dpr, dth, lines.len()) {
             let w = [
                 u400.map_or(0.0, |u| {
-                    (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()
+                    (dpr.lambda(&d.theta, u) - dpr.lambda(dth, u)).abs()
                 }),
                 u700.map_or(0.0, |u| {
-                    (pr.lambda(&d.theta, u) - pr.lambda(&theta, u)).abs()
+                    (dpr.lambda(&d.theta, u) - dpr.lambda(dth, u)).abs()
                 }),
             ];
             cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(w[0]);
@@ -1795,6 +1797,45 @@ fn covariance(jac: &DMatrix<f64>, sse: f64, dof: f64) -> Option<DMatrix<f64>> {
     let (m, p) = jac.shape();
     let c = stats::covariance_scaled(jac.as_slice(), m, p, sse / dof)?;
     Some(DMatrix::from_column_slice(p, p, &c))
+}
+
+/// Whether a background's continuum can take up part of a line-wide blob more than the coarsest
+/// spline in u can: a finer spline, or the passband continuum (elements ≈ 1.4 line blobs wide,
+/// non-negative, so an unlisted line is a shape it can draw). Unlisted lines are then searched
+/// in the coarsest spline's fit instead.
+fn finer_than_coarse(t: &BackgroundTerms, k_coarse: usize) -> bool {
+    t.continuum_intervals > k_coarse || t.passband_intervals > 0
+}
+
+/// The coarsest spline-in-u continuum and nothing finer beside it.
+fn is_coarse(t: &BackgroundTerms, k_coarse: usize) -> bool {
+    t.continuum_intervals == k_coarse && t.passband_intervals == 0 && t.shared_intervals == 0
+}
+
+/// Central-difference Jacobian columns of `residual` at `theta` (column j with step `step(j)`),
+/// the columns computed in parallel: the whole-profile fit and the unlisted-line fit
+/// ([`crate::lvf::unlisted`]) both differentiate their residuals this way.
+pub(crate) fn central_difference_columns<H, R>(theta: &[f64], step: H, residual: R) -> Vec<Vec<f64>>
+where
+    H: Fn(usize) -> f64 + Sync,
+    R: Fn(&[f64]) -> Vec<f64> + Sync,
+{
+    (0..theta.len())
+        .into_par_iter()
+        .map(|j| {
+            let h = step(j);
+            let mut tp = theta.to_vec();
+            let mut tm = theta.to_vec();
+            tp[j] += h;
+            tm[j] -= h;
+            let rp = residual(&tp);
+            let rm = residual(&tm);
+            rp.iter()
+                .zip(&rm)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect()
+        })
+        .collect()
 }
 
 #[cfg(test)]

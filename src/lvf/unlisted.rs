@@ -116,23 +116,11 @@ impl Residuals for FreeLines<'_, '_> {
         true
     }
     fn jacobian(&self, theta: &[f64], jac: &mut [f64]) -> bool {
-        let q = theta.len();
-        let cols: Vec<Vec<f64>> = (0..q)
-            .into_par_iter()
-            .map(|j| {
-                let h = self.step(j, theta);
-                let mut tp = theta.to_vec();
-                let mut tm = theta.to_vec();
-                tp[j] += h;
-                tm[j] -= h;
-                let rp = self.eval(&tp).residual;
-                let rm = self.eval(&tm).residual;
-                rp.iter()
-                    .zip(&rm)
-                    .map(|(a, b)| (a - b) / (2.0 * h))
-                    .collect()
-            })
-            .collect();
+        let cols = crate::lvf::fit::central_difference_columns(
+            theta,
+            |j| self.step(j, theta),
+            |t| self.eval(t).residual,
+        );
         let m = cols[0].len();
         for (j, c) in cols.iter().enumerate() {
             jac[j * m..(j + 1) * m].copy_from_slice(c);
