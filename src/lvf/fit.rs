@@ -945,12 +945,15 @@ pub fn calibrate_whole_profile(
         } => (vec![with_k(continuum, falloff_degree.min(6))], "requested"),
     };
     let ln_n = ((3 * profile.px.len()) as f64).ln();
-    let mut starts: Vec<&[f64]> = vec![&plain_best.theta];
-    if let Some(second) = plain.get(1) {
-        starts.push(&second.theta);
-    }
-    let (mut chosen_pr, mut chosen_fit, mut best_bic, mut others) =
-        fit_candidates(&candidates, &full, &starts, 0, ln_n);
+    let ident = identification_starts(&full, &plain, fwhm0);
+    let starts: Vec<&[f64]> = ident.iter().map(|f| f.theta.as_slice()).collect();
+    let Candidates {
+        pr: mut chosen_pr,
+        fit: mut chosen_fit,
+        bic: mut best_bic,
+        per_start,
+        mut others,
+    } = fit_candidates(&candidates, &full, &starts, 0, ln_n);
     // A strong line the lamp list lacks would bias every candidate: search the chosen fit's
     // residual, and when lines are found, choose the background again with them in the model.
     // Only when the background is chosen (`Auto`): a requested model is fitted as asked.
@@ -986,8 +989,8 @@ pub fn calibrate_whole_profile(
         let full_x = full.with_lines(l);
         let x_start = search.as_ref().map_or(Vec::new(), |s| s.1.clone());
         let starts_x: Vec<&[f64]> = vec![&x_start, &plain_best.theta];
-        (chosen_pr, chosen_fit, best_bic, others) =
-            fit_candidates(&candidates, &full_x, &starts_x, extra.len(), ln_n);
+        let c = fit_candidates(&candidates, &full_x, &starts_x, extra.len(), ln_n);
+        (chosen_pr, chosen_fit, best_bic, others) = (c.pr, c.fit, c.bic, c.others);
         // the chosen background refined once more with the unlisted wavelengths free, so the
         // map's covariance carries their uncertainty
         let listed_only = chosen_pr.with_lines(lines.clone());
@@ -1540,9 +1543,62 @@ pub fn calibrate_whole_profile(
         }
         cal.diagnostics["displaced_lines"] = serde_json::json!(report);
     }
+    report_identifications(&mut cal, &per_start, fwhm);
     cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;
     Ok(cal)
+}
+
+/// ΔBIC under which another identification of the blobs is reported as ambiguous.
+const IDENT_AMBIGUOUS_DELTA_BIC: f64 = 10.0;
+/// Offset-only fits up to this multiple of the best SSE are refined as other identifications.
+const IDENT_SSE_RATIO: f64 = 4.0;
+/// At most this many offset-only fits are refined with every background candidate.
+const IDENT_MAX_STARTS: usize = 4;
+
+/// `diagnostics.line_identification`: each start's identification (λ at the profile's ends) and
+/// BIC under the chosen background, and a warning when one that differs by more than half the
+/// FWHM at an end is within [`IDENT_AMBIGUOUS_DELTA_BIC`] of the best.
+fn report_identifications(cal: &mut LvfCalibration, per_start: &[StartFit], fwhm: f64) {
+    let Some(best) = per_start.iter().min_by(|a, b| a.bic.total_cmp(&b.bic)) else {
+        return;
+    };
+    let differs = |s: &StartFit| {
+        (s.ends_nm[0] - best.ends_nm[0]).abs() > 0.5 * fwhm
+            || (s.ends_nm[1] - best.ends_nm[1]).abs() > 0.5 * fwhm
+    };
+    let rows: Vec<serde_json::Value> = per_start
+        .iter()
+        .map(|s| {
+            serde_json::json!({
+                "start": s.start,
+                "lambda_at_ends_nm": s.ends_nm,
+                "bic": s.bic,
+                "delta_bic": s.bic - best.bic,
+                "same_identification": !differs(s),
+            })
+        })
+        .collect();
+    let runner_up = per_start
+        .iter()
+        .filter(|s| differs(s))
+        .min_by(|a, b| a.bic.total_cmp(&b.bic));
+    cal.diagnostics["line_identification"] = serde_json::json!({
+        "rule": "every offset-only fit within 4× the best SSE that places the profile's ends more than half an FWHM apart is refined with each background candidate; the lowest BIC picks which blob is which line",
+        "chosen_lambda_at_ends_nm": best.ends_nm,
+        "starts": rows,
+        "runner_up_delta_bic": runner_up.map(|r| r.bic - best.bic),
+    });
+    if let Some(r) = runner_up.filter(|r| r.bic - best.bic <= IDENT_AMBIGUOUS_DELTA_BIC) {
+        cal.warnings.push(format!(
+            "the lamp lines can be matched to the blobs another way: an identification with the profile's ends at {:.1} / {:.1} nm (chosen: {:.1} / {:.1} nm) fits within ΔBIC {:.1}; check the ROI, the lamp (--lamp) and the direction (--direction)",
+            r.ends_nm[0],
+            r.ends_nm[1],
+            best.ends_nm[0],
+            best.ends_nm[1],
+            r.bic - best.bic
+        ));
+    }
 }
 
 /// Every background candidate refined from the given starts (θ in the layout of `full`), the
@@ -1555,30 +1611,93 @@ fn fit_candidates<'a>(
     starts: &[&[f64]],
     n_extra: usize,
     ln_n: f64,
-) -> (Problem<'a>, Fitted, f64, Vec<(Problem<'a>, Fitted, f64)>) {
-    let mut fitted: Vec<(Problem<'a>, Fitted, f64)> = candidates
+) -> Candidates<'a> {
+    let mut fitted: Vec<(Problem<'a>, Fitted, f64, Vec<StartFit>)> = candidates
         .par_iter()
         .map(|&terms| {
             let pr = full.with(2, terms);
+            let score = |i: usize, f: &Fitted| StartFit {
+                start: i,
+                ends_nm: [pr.lambda(&f.theta, -1.0), pr.lambda(&f.theta, 1.0)],
+                bic: pr.bic(f) + n_extra as f64 * ln_n,
+            };
             let mut best = pr.levenberg_marquardt(&pr.theta_from(full, starts[0]));
+            let mut per_start = vec![score(0, &best)];
             if terms.has_continuum() {
-                for st in &starts[1..] {
+                for (i, st) in starts.iter().enumerate().skip(1) {
                     let f = pr.levenberg_marquardt(&pr.theta_from(full, st));
+                    per_start.push(score(i, &f));
                     if f.eval.sse < best.eval.sse {
                         best = f;
                     }
                 }
             }
             let bic = pr.bic(&best) + n_extra as f64 * ln_n;
-            (pr, best, bic)
+            (pr, best, bic, per_start)
         })
         .collect();
     let best_i = (0..fitted.len())
         .min_by(|&a, &b| fitted[a].2.total_cmp(&fitted[b].2))
         .unwrap_or(0);
-    let best_bic = fitted[best_i].2;
-    let (chosen_pr, chosen_fit, _) = fitted.swap_remove(best_i);
-    (chosen_pr, chosen_fit, best_bic, fitted)
+    let (pr, fit, bic, per_start) = fitted.swap_remove(best_i);
+    Candidates {
+        pr,
+        fit,
+        bic,
+        per_start,
+        others: fitted.into_iter().map(|(p, f, b, _)| (p, f, b)).collect(),
+    }
+}
+
+/// What [`fit_candidates`] returns: the chosen background's problem, fit and BIC, the BIC and
+/// map ends each start reached with that background, and the other candidates.
+struct Candidates<'a> {
+    pr: Problem<'a>,
+    fit: Fitted,
+    bic: f64,
+    per_start: Vec<StartFit>,
+    others: Vec<(Problem<'a>, Fitted, f64)>,
+}
+
+/// One start's refinement under the chosen background: the identification it reached (λ at
+/// the profile's ends) and its BIC.
+#[derive(Clone, Debug)]
+struct StartFit {
+    start: usize,
+    ends_nm: [f64; 2],
+    bic: f64,
+}
+
+/// Offset-only fits that identify the blobs differently (which blob is which lamp line): the
+/// best and second best, then every fit within [`IDENT_SSE_RATIO`] of the best SSE whose λ at
+/// either end of the profile differs by more than half the FWHM guess from every start already
+/// kept, up to [`IDENT_MAX_STARTS`]. The offset-only fit cannot tell them apart when a broad
+/// band the lamp list does not draw (a CFL's Eu²⁺ blue band) sits beside the lines; refined with
+/// each background candidate, the continuum carries the band and BIC picks the identification.
+fn identification_starts<'f>(
+    full: &Problem,
+    plain: &'f [Fitted],
+    fwhm_guess: f64,
+) -> Vec<&'f Fitted> {
+    let ends = |f: &Fitted| [full.lambda(&f.theta, -1.0), full.lambda(&f.theta, 1.0)];
+    let mut kept: Vec<&Fitted> = plain.iter().take(2).collect();
+    let Some(best_sse) = plain.first().map(|f| f.eval.sse) else {
+        return kept;
+    };
+    for f in plain.iter().skip(2) {
+        if kept.len() >= IDENT_MAX_STARTS || f.eval.sse > IDENT_SSE_RATIO * best_sse {
+            break;
+        }
+        let e = ends(f);
+        let distinct = kept.iter().all(|k| {
+            let ek = ends(k);
+            (e[0] - ek[0]).abs() > 0.5 * fwhm_guess || (e[1] - ek[1]).abs() > 0.5 * fwhm_guess
+        });
+        if distinct {
+            kept.push(f);
+        }
+    }
+    kept
 }
 
 /// The fit whose residual is searched for unexplained lines.

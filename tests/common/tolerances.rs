@@ -257,6 +257,11 @@ pub mod lvf_continuum {
     /// 0.3 nm cannot be judged on these images; 1 nm can. NOT met (known failure, measured
     /// 1.3–5.6 nm and one misidentification by ≈ 100 nm, docs/performance.md).
     pub const CFL_REFERENCE_TOL_NM: f64 = 1.0;
+    /// What lumifit's CFL list can reach on the CIE FL tables (docs/performance.md, sixth
+    /// round: its 487.7 nm Tb³⁺ line sits at 488.9–490.0 nm in the tables, ≈ 3 nm at 700 nm per
+    /// nm; measured 1.9–4.7 nm): a bound that tells a right identification from a wrong one,
+    /// which is ≥ 100 nm off (FL10 before the identifications were rescored).
+    pub const CFL_LIST_FLOOR_NM: f64 = 6.0;
     /// A listed line absent from the image (436 nm of Hg): the map rests on 405/408 and
     /// 546–579 nm alone and the continuum takes part of the gap (measured 0.40 nm).
     pub const ABSENT_LINE_BOUND_NM: f64 = 0.6;
