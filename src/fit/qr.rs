@@ -37,10 +37,14 @@ impl Qr {
         self.n = n;
         self.a.clear();
         self.a.extend_from_slice(&a[..m * n]);
-        self.beta.clear();
+        // every element is assigned below (no clearing pass: these are a few elements, and
+        // the fill cost a call each)
         self.beta.resize(n, 0.0);
-        self.rdiag.clear();
         self.rdiag.resize(n, 0.0);
+        for j in m.min(n)..n {
+            self.beta[j] = 0.0;
+            self.rdiag[j] = 0.0;
+        }
         for j in 0..n.min(m) {
             let col = j * m;
             let norm = column_norm(&self.a[col + j..col + m]);

@@ -194,10 +194,16 @@ impl<M: SeparableModel> Evaluator<'_, '_, '_, M> {
         pt.dbasis.resize(m * n, 0.0);
         self.model.eval(theta, &mut pt.basis, &mut pt.dbasis);
         if let Some(w) = self.data.sqrt_w {
-            for j in 0..n {
-                for i in 0..m {
-                    pt.basis[j * m + i] *= w[i];
-                    pt.dbasis[j * m + i] *= w[i];
+            // column by column without index checks (the loop vectorises)
+            let w = &w[..m];
+            for (b, d) in pt
+                .basis
+                .chunks_exact_mut(m)
+                .zip(pt.dbasis.chunks_exact_mut(m))
+            {
+                for ((bi, di), wi) in b.iter_mut().zip(d.iter_mut()).zip(w) {
+                    *bi *= wi;
+                    *di *= wi;
                 }
             }
         }

@@ -57,12 +57,22 @@ impl SeparableModel for ExpBasis<'_> {
             let k = th.exp();
             match self.step {
                 Some(dt) => {
+                    // the powers of r (a serial recurrence), then the derivative column from
+                    // them in a separate loop without index checks, which vectorises
                     let r = (-k * dt).exp();
+                    let col = &mut basis[j * m..(j + 1) * m];
                     let mut e = 1.0;
-                    for (i, &t) in self.tau.iter().enumerate() {
-                        basis[j * m + i] = e;
-                        dbasis[j * m + i] = -k * t * e;
+                    for b in col.iter_mut() {
+                        *b = e;
                         e *= r;
+                    }
+                    let nk = -k;
+                    for ((d, &t), &e) in dbasis[j * m..(j + 1) * m]
+                        .iter_mut()
+                        .zip(self.tau)
+                        .zip(col.iter())
+                    {
+                        *d = nk * t * e;
                     }
                 }
                 None => {

@@ -25,6 +25,8 @@ pub(super) struct RawFit {
 pub(super) struct Prepared<'c> {
     pub(super) curve: &'c DecayCurve,
     pub(super) tau: Vec<f64>,
+    /// [`uniform_step`] of `tau`, found once.
+    pub(super) step: Option<f64>,
     pub(super) t0: f64,
     pub(super) sqrt_w: Option<Vec<f64>>,
     /// The weights w_i = 1/σ_i² (ones without σ), so that loops read them instead of squaring.
@@ -65,9 +67,11 @@ impl<'c> Prepared<'c> {
             Some(w) => w.iter().map(|v: &f64| v * v).collect(),
             None => vec![1.0; curve.n_rows()],
         };
+        let tau: Vec<f64> = curve.t_s.iter().map(|t| t - t0).collect();
         Prepared {
             curve,
-            tau: curve.t_s.iter().map(|t| t - t0).collect(),
+            step: uniform_step(&tau),
+            tau,
             t0,
             sqrt_w,
             wv,
@@ -128,7 +132,7 @@ impl<'c> Prepared<'c> {
     /// e^{−e^{θ_j} τ_i} for every state j and sample i (state after state).
     pub(super) fn exp_table(&self, theta: &[f64], out: &mut Vec<f64>) {
         out.clear();
-        let step = uniform_step(&self.tau);
+        let step = self.step;
         for th in theta {
             let k = th.exp();
             match step {
@@ -176,7 +180,7 @@ impl<'c> Prepared<'c> {
     ) -> RawFit {
         let basis = ExpBasis {
             tau: &self.tau,
-            step: uniform_step(&self.tau),
+            step: self.step,
             n_exp: n,
             background: opts.background,
         };
@@ -244,7 +248,7 @@ impl<'c> Prepared<'c> {
         let mut s = s0.to_vec();
         let mut theta = theta0.to_vec();
         let mut ys = vec![0.0; m];
-        let mut raw = None;
+        let mut last: Option<(Vec<f64>, f64, Vec<f64>, Termination)> = None;
         let mut ex = Vec::with_capacity(n * m);
         let ybar: Vec<f64> = {
             let wsum: f64 = (0..m).map(|i| self.w(i)).sum();
@@ -330,27 +334,21 @@ impl<'c> Prepared<'c> {
                     tight |= d < ALTERNATION_SETTLED;
                 }
             }
-            let a_scaled: Vec<f64> = a.iter().map(|v| v * scale).collect();
-            let c = a_scaled
-                .iter()
-                .map(|aj| new_s.iter().map(|sc| aj * sc).collect())
-                .collect();
-            let mut r = RawFit {
-                theta: theta.clone(),
-                a: a_scaled,
-                c,
-                s: new_s.clone(),
-                background,
-                rss: 0.0,
-                termination: fit.termination,
-            };
-            r.rss = self.rss_of(&r, &ex);
             // after the first round: one joint solve from its end, when that end is interior
             if round == 0
                 && self.shared_solve == SharedSolve::Joint
-                && r.a.iter().all(|v| *v > 0.0)
-                && r.s.iter().all(|v| *v > 0.0)
+                && a.iter().all(|v| *v * scale > 0.0)
+                && new_s.iter().all(|v| *v > 0.0)
             {
+                let r = self.shared_raw(
+                    &theta,
+                    &a,
+                    scale,
+                    &new_s,
+                    background.clone(),
+                    fit.termination,
+                    &ex,
+                );
                 if let Some(j) = Joint::new(self, n, opts.background, &r.s).fit(
                     &r.theta,
                     &r.a,
@@ -363,13 +361,18 @@ impl<'c> Prepared<'c> {
                     }
                 }
             }
-            raw = Some(r);
+            // only the last round's fit is returned: it is assembled (and its RSS computed)
+            // after the loop, from that round's θ, amplitudes, spectrum and exp table
+            last = Some((a, scale, background, fit.termination));
             s = new_s;
             if done {
                 break;
             }
         }
-        raw.unwrap_or(RawFit {
+        if let Some((a, scale, background, termination)) = last {
+            return self.shared_raw(&theta, &a, scale, &s, background, termination, &ex);
+        }
+        RawFit {
             theta,
             a: vec![0.0; n],
             c: vec![vec![0.0; nc]; n],
@@ -377,6 +380,37 @@ impl<'c> Prepared<'c> {
             background: Vec::new(),
             rss: f64::INFINITY,
             termination: Termination::NonFinite,
-        })
+        }
+    }
+
+    /// The shared-spectrum fit of one alternation round: amplitudes a·scale, spectrum s,
+    /// c_j = a_j·scale·s, and its RSS from `ex`, the exp table of θ.
+    #[allow(clippy::too_many_arguments)]
+    fn shared_raw(
+        &self,
+        theta: &[f64],
+        a: &[f64],
+        scale: f64,
+        s: &[f64],
+        background: Vec<f64>,
+        termination: Termination,
+        ex: &[f64],
+    ) -> RawFit {
+        let a_scaled: Vec<f64> = a.iter().map(|v| v * scale).collect();
+        let c = a_scaled
+            .iter()
+            .map(|aj| s.iter().map(|sc| aj * sc).collect())
+            .collect();
+        let mut r = RawFit {
+            theta: theta.to_vec(),
+            a: a_scaled,
+            c,
+            s: s.to_vec(),
+            background,
+            rss: 0.0,
+            termination,
+        };
+        r.rss = self.rss_of(&r, ex);
+        r
     }
 }

@@ -55,7 +55,7 @@ impl Prepared<'_> {
     /// Biased by noise, so only a start; `None` unless the roots are real, distinct, in (0, 1)
     /// and give rates in the plausible range.
     pub(super) fn prony_start(&self, n: usize, background: bool) -> Option<Vec<f64>> {
-        let dt = uniform_step(&self.tau)?;
+        let dt = self.step?;
         let (m, nc) = (self.m, self.n_ch);
         let len = m - usize::from(background);
         if n == 0 || n > MAX_STATES || len < 2 * n + 2 {

@@ -9,7 +9,7 @@ impl Prepared<'_> {
     /// product per sample when the times are evenly spaced).
     pub(super) fn abs_exp_table(&self, ks: &[f64]) -> Vec<f64> {
         let mut out = Vec::with_capacity(ks.len() * self.m);
-        let step = uniform_step(&self.tau);
+        let step = self.step;
         for k in ks {
             match step {
                 Some(dt) => {
