@@ -1560,9 +1560,18 @@ const IDENT_MAX_STARTS: usize = 4;
 /// BIC under the chosen background, and a warning when one that differs by more than half the
 /// FWHM at an end is within [`IDENT_AMBIGUOUS_DELTA_BIC`] of the best.
 fn report_identifications(cal: &mut LvfCalibration, per_start: &[StartFit], fwhm: f64) {
-    let Some(best) = per_start.iter().min_by(|a, b| a.bic.total_cmp(&b.bic)) else {
-        return;
-    };
+    if let Some((report, warning)) = identification_report(per_start, fwhm) {
+        cal.diagnostics["line_identification"] = report;
+        cal.warnings.extend(warning);
+    }
+}
+
+/// The report and the warning of [`report_identifications`]; `None` without starts.
+fn identification_report(
+    per_start: &[StartFit],
+    fwhm: f64,
+) -> Option<(serde_json::Value, Option<String>)> {
+    let best = per_start.iter().min_by(|a, b| a.bic.total_cmp(&b.bic))?;
     let differs = |s: &StartFit| {
         (s.ends_nm[0] - best.ends_nm[0]).abs() > 0.5 * fwhm
             || (s.ends_nm[1] - best.ends_nm[1]).abs() > 0.5 * fwhm
@@ -1583,22 +1592,25 @@ fn report_identifications(cal: &mut LvfCalibration, per_start: &[StartFit], fwhm
         .iter()
         .filter(|s| differs(s))
         .min_by(|a, b| a.bic.total_cmp(&b.bic));
-    cal.diagnostics["line_identification"] = serde_json::json!({
+    let report = serde_json::json!({
         "rule": "every offset-only fit within 4× the best SSE that places the profile's ends more than half an FWHM apart is refined with each background candidate; the lowest BIC picks which blob is which line",
         "chosen_lambda_at_ends_nm": best.ends_nm,
         "starts": rows,
         "runner_up_delta_bic": runner_up.map(|r| r.bic - best.bic),
     });
-    if let Some(r) = runner_up.filter(|r| r.bic - best.bic <= IDENT_AMBIGUOUS_DELTA_BIC) {
-        cal.warnings.push(format!(
-            "the lamp lines can be matched to the blobs another way: an identification with the profile's ends at {:.1} / {:.1} nm (chosen: {:.1} / {:.1} nm) fits within ΔBIC {:.1}; check the ROI, the lamp (--lamp) and the direction (--direction)",
-            r.ends_nm[0],
-            r.ends_nm[1],
-            best.ends_nm[0],
-            best.ends_nm[1],
-            r.bic - best.bic
-        ));
-    }
+    let warning = runner_up
+        .filter(|r| r.bic - best.bic <= IDENT_AMBIGUOUS_DELTA_BIC)
+        .map(|r| {
+            format!(
+                "the lamp lines can be matched to the blobs another way: an identification with the profile's ends at {:.1} / {:.1} nm (chosen: {:.1} / {:.1} nm) fits within ΔBIC {:.1}; check the ROI, the lamp (--lamp) and the direction (--direction)",
+                r.ends_nm[0],
+                r.ends_nm[1],
+                best.ends_nm[0],
+                best.ends_nm[1],
+                r.bic - best.bic
+            )
+        });
+    Some((report, warning))
 }
 
 /// Every background candidate refined from the given starts (θ in the layout of `full`), the
@@ -1977,6 +1989,34 @@ mod tests {
         assert!(x[0] < 0.0, "background stays free: {x}");
         assert!(x[1] > 0.0 && x[2] >= 0.0, "{x}");
         assert_eq!(x[2], 0.0);
+    }
+
+    #[test]
+    fn identifications_within_delta_bic_10_are_warned_and_the_same_one_is_not() {
+        let st = |start, a: f64, b: f64, bic| StartFit {
+            start,
+            ends_nm: [a, b],
+            bic,
+        };
+        // a near-copy of the best (within FWHM/2 at both ends) never warns, however close
+        let same = [st(0, 372.0, 746.0, -100.0), st(1, 380.0, 752.0, -99.0)];
+        let (r, w) = identification_report(&same, 25.0).unwrap();
+        assert!(w.is_none(), "{r}");
+        assert_eq!(r["starts"][1]["same_identification"], true);
+        assert!(r["runner_up_delta_bic"].is_null());
+        // another identification 8 behind: warned; 12 behind: reported, not warned
+        for (gap, warned) in [(8.0, true), (12.0, false)] {
+            let two = [
+                st(0, 470.0, 870.0, -100.0 + gap),
+                st(1, 372.0, 746.0, -100.0),
+            ];
+            let (r, w) = identification_report(&two, 25.0).unwrap();
+            assert_eq!(w.is_some(), warned, "gap {gap}: {r}");
+            assert_eq!(r["chosen_lambda_at_ends_nm"][0], 372.0);
+            assert_eq!(r["starts"][0]["same_identification"], false);
+            assert!((r["runner_up_delta_bic"].as_f64().unwrap() - gap).abs() < 1e-9);
+        }
+        assert!(identification_report(&[], 25.0).is_none());
     }
 
     #[test]
