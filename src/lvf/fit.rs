@@ -1566,16 +1566,19 @@ fn report_identifications(cal: &mut LvfCalibration, per_start: &[StartFit], fwhm
     }
 }
 
+/// Two maps identify the blobs differently: λ at either end of the profile (`ends_nm`) differs
+/// by more than half the FWHM.
+fn other_identification(a: [f64; 2], b: [f64; 2], fwhm: f64) -> bool {
+    (a[0] - b[0]).abs() > 0.5 * fwhm || (a[1] - b[1]).abs() > 0.5 * fwhm
+}
+
 /// The report and the warning of [`report_identifications`]; `None` without starts.
 fn identification_report(
     per_start: &[StartFit],
     fwhm: f64,
 ) -> Option<(serde_json::Value, Option<String>)> {
     let best = per_start.iter().min_by(|a, b| a.bic.total_cmp(&b.bic))?;
-    let differs = |s: &StartFit| {
-        (s.ends_nm[0] - best.ends_nm[0]).abs() > 0.5 * fwhm
-            || (s.ends_nm[1] - best.ends_nm[1]).abs() > 0.5 * fwhm
-    };
+    let differs = |s: &StartFit| other_identification(s.ends_nm, best.ends_nm, fwhm);
     let rows: Vec<serde_json::Value> = per_start
         .iter()
         .map(|s| {
@@ -1593,7 +1596,7 @@ fn identification_report(
         .filter(|s| differs(s))
         .min_by(|a, b| a.bic.total_cmp(&b.bic));
     let report = serde_json::json!({
-        "rule": "every offset-only fit within 4× the best SSE that places the profile's ends more than half an FWHM apart is refined with each background candidate; the lowest BIC picks which blob is which line",
+        "rule": format!("every offset-only fit within {IDENT_SSE_RATIO}× the best SSE that places the profile's ends more than half an FWHM apart (up to {IDENT_MAX_STARTS}) is refined with each background candidate; the lowest BIC picks which blob is which line"),
         "chosen_lambda_at_ends_nm": best.ends_nm,
         "starts": rows,
         "runner_up_delta_bic": runner_up.map(|r| r.bic - best.bic),
@@ -1701,10 +1704,9 @@ fn identification_starts<'f>(
             break;
         }
         let e = ends(f);
-        let distinct = kept.iter().all(|k| {
-            let ek = ends(k);
-            (e[0] - ek[0]).abs() > 0.5 * fwhm_guess || (e[1] - ek[1]).abs() > 0.5 * fwhm_guess
-        });
+        let distinct = kept
+            .iter()
+            .all(|k| other_identification(e, ends(k), fwhm_guess));
         if distinct {
             kept.push(f);
         }
