@@ -170,13 +170,27 @@ fn json<T: Serialize>(v: &T) -> serde_json::Value {
     serde_json::to_value(v).unwrap_or(serde_json::Value::Null)
 }
 
+/// The fitted candidates, then the screened-out one (not fitted), if any.
+fn candidates_json(fit: &DecayFit) -> serde_json::Value {
+    let mut v = json(&fit.candidates);
+    if let (Some(sc), serde_json::Value::Array(list)) = (&fit.screened, &mut v) {
+        list.push(serde_json::json!({
+            "n_states": sc.n_states,
+            "screened": true,
+            "gain_ratio": sc.gain_ratio,
+            "note": "not fitted: one more state could gain only gain_ratio of the RSS reduction BIC requires",
+        }));
+    }
+    v
+}
+
 impl DecayFitRecord {
     /// The record of a decay fit.
     pub fn new(fit: &DecayFit) -> Self {
         Self {
             assumption: "saturation at switch-off (r_i(0) = 1, Nalbach et al. 2017 §4.4): lambda_i = a_i * spectrum / k_r,i".into(),
             background: fit.background.clone(),
-            candidates: json(&fit.candidates),
+            candidates: candidates_json(fit),
             charging: None,
             flags: json(&fit.flags),
             lambda_camera_scale: None,

@@ -43,6 +43,7 @@ mod basis;
 mod prepared;
 mod projected;
 mod reradiation;
+mod screen;
 mod select;
 mod starts;
 #[cfg(test)]

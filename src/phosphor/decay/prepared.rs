@@ -30,7 +30,7 @@ pub(super) struct Prepared<'c> {
     pub(super) t0: f64,
     pub(super) sqrt_w: Option<Vec<f64>>,
     /// The weights w_i = 1/σ_i² (ones without σ), so that loops read them instead of squaring.
-    wv: Vec<f64>,
+    pub(super) wv: Vec<f64>,
     /// Channels stacked, m × n_ch.
     pub(super) y: Vec<f64>,
     pub(super) n_ch: usize,

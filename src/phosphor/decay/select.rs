@@ -349,6 +349,7 @@ fn fit_decay_with_report(
     let mut raws: Vec<Option<RawFit>> = vec![None; hi];
     let mut exact = vec![false; hi];
     let mut first = 1;
+    let mut screened = None;
     if lo >= 2 {
         if let Some(st) = prep.prony_start(lo, opts.background) {
             let r = prep.fit_from(lo, &st, opts, &s0);
@@ -367,6 +368,22 @@ fn fit_decay_with_report(
             && n == hi
             && n > lo
             && (prep.n_ch == 1 || opts.amplitudes == AmplitudeModel::SharedSpectrum);
+        // the largest optional candidate is fitted only if one more state could gain what BIC
+        // requires of it (`screen`): otherwise it is recorded as screened, not fitted
+        if n == hi && n > lo {
+            if let Some(ratio) = raws[n - 2]
+                .as_ref()
+                .and_then(|p| prep.screen_ratio(p, opts))
+            {
+                if ratio < SCREEN_RATIO {
+                    screened = Some(ScreenedCandidate {
+                        n_states: n,
+                        gain_ratio: ratio,
+                    });
+                    break;
+                }
+            }
+        }
         let o = if n < lo || provisional {
             &seed_opts
         } else {
@@ -447,7 +464,9 @@ fn fit_decay_with_report(
                 .into(),
         });
     }
-    Ok(prep.finish(raw, opts, candidates, flags, sds))
+    let mut fit = prep.finish(raw, opts, candidates, flags, sds);
+    fit.screened = screened;
+    Ok(fit)
 }
 
 impl Prepared<'_> {

@@ -234,3 +234,73 @@ fn joint_solve_declines_an_optimum_with_a_negative_amplitude_and_the_alternation
     assert_eq!(joint.theta, alt.theta);
     assert_eq!(joint.rss, alt.rss);
 }
+
+/// A shared-spectrum curve with additive pseudo-random noise of standard deviation ≈ `sd`
+/// (a deterministic hash of the sample index, so the test is reproducible).
+fn noisy_shared_curve(amps: &[f64], rates: &[f64], sd: f64) -> DecayCurve {
+    let t: Vec<f64> = (0..37).map(|i| 5.0 * i as f64).collect();
+    let s = [0.3, 0.9, 0.4];
+    let ch = (0..3)
+        .map(|c| {
+            t.iter()
+                .enumerate()
+                .map(|(i, ti)| {
+                    let f: f64 = amps
+                        .iter()
+                        .zip(rates)
+                        .map(|(a, k)| a * (-k * ti).exp())
+                        .sum();
+                    let h = ((i * 3 + c) as f64 * 12.9898 + 4.1).sin() * 43758.5453;
+                    // uniform on (−0.5, 0.5) has sd 1/√12
+                    s[c] * f + sd * 12f64.sqrt() * (h - h.floor() - 0.5)
+                })
+                .collect()
+        })
+        .collect();
+    DecayCurve::new(t, ch, None).unwrap()
+}
+
+#[test]
+fn the_screen_predicts_the_gain_of_a_third_state_and_skips_it_only_when_it_cannot_win() {
+    let opts = DecayFitOptions::default();
+    let n_obs = (37 * 3) as f64;
+    let needed_fraction = 1.0 - (-2.0 * n_obs.ln() / n_obs).exp();
+    // two states and noise: the third state only fits noise
+    let c = noisy_shared_curve(&[1.0, 0.5], &[0.227, 0.0454], 0.004);
+    let prep = Prepared::new(&c);
+    let fixed = |n| DecayFitOptions {
+        states: StatesChoice::Fixed(n),
+        collapse: false,
+        ..DecayFitOptions::default()
+    };
+    let two = fit_decay(&c, &fixed(2)).unwrap();
+    let three = fit_decay(&c, &fixed(3)).unwrap();
+    let s0 = prep.initial_spectrum();
+    let raw2 = prep.fit_n(2, None, false, &opts, &s0);
+    let ratio = prep.screen_ratio(&raw2, &opts).unwrap();
+    let predicted = ratio * needed_fraction * raw2.rss;
+    let actual = two.rss - three.rss;
+    println!("screen ratio {ratio:.3}: linearised gain {predicted:.4e}, fitted {actual:.4e}");
+    assert!(
+        (predicted / actual - 1.0).abs() < 0.25,
+        "linearised gain {predicted:e} against the fitted third state's {actual:e}"
+    );
+    let auto = fit_decay(&c, &opts).unwrap();
+    assert_eq!(auto.states.len(), 2);
+    let sc = auto
+        .screened
+        .expect("the three-state candidate is screened");
+    assert_eq!(sc.n_states, 3);
+    assert!(sc.gain_ratio < SCREEN_RATIO, "{sc:?}");
+    assert!(auto.candidates.iter().all(|c| c.n_states < 3));
+    // three well-separated states: the screen lets the candidate through and it is chosen
+    let c3 = noisy_shared_curve(&[1.0, 0.6, 0.4], &[0.5, 0.08, 0.012], 0.002);
+    let auto3 = fit_decay(&c3, &opts).unwrap();
+    let prep3 = Prepared::new(&c3);
+    let raw3 = prep3.fit_n(2, None, false, &opts, &prep3.initial_spectrum());
+    let ratio3 = prep3.screen_ratio(&raw3, &opts).unwrap();
+    println!("three states: screen ratio of the two-state fit {ratio3:.2}");
+    assert!(ratio3 > 2.0, "{ratio3}");
+    assert!(auto3.screened.is_none(), "{:?}", auto3.screened);
+    assert_eq!(auto3.states.len(), 3, "{:?}", auto3.candidates);
+}

@@ -7,6 +7,13 @@ use super::*;
 /// Largest number of states the fit offers.
 pub const MAX_STATES: usize = 3;
 
+/// The largest candidate (three states in the automatic mode) is fitted only when the
+/// linearised RSS gain of one more state reaches this fraction of the gain BIC requires
+/// ([`ScreenedCandidate`]). Where a candidate won on BIC its ratio was ≥ 0.89 on 90,000 pixels
+/// of a synthetic series and ≥ 1.005 on the 300 benchmark curves of `tests/decay_decisions.rs`
+/// (docs/performance.md, issue 18 eighth round), so 0.5 leaves a margin of 1.8×.
+pub const SCREEN_RATIO: f64 = 0.5;
+
 /// Relative cost reduction at which a fit that only seeds the next number of states stops (it
 /// is continued to the full tolerance if it is ever selected).
 pub(super) const SEED_FTOL: f64 = 1e-6;
@@ -261,6 +268,18 @@ pub struct Candidate {
     pub termination: Termination,
 }
 
+/// A candidate that was not fitted because the screen showed it could not win on BIC: the
+/// largest Gauss–Newton (linearised) RSS reduction of adding one state to the fit with one state
+/// fewer, over a log-spaced grid of rates, was only `gain_ratio` (< [`SCREEN_RATIO`]) of the
+/// reduction BIC requires for the extra parameters.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ScreenedCandidate {
+    /// Number of states of the candidate not fitted.
+    pub n_states: usize,
+    /// Linearised gain of one more state / the gain BIC requires.
+    pub gain_ratio: f64,
+}
+
 /// Result of [`fit_decay`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct DecayFit {
@@ -280,6 +299,10 @@ pub struct DecayFit {
     pub n_params: usize,
     /// Every candidate fitted, by number of states.
     pub candidates: Vec<Candidate>,
+    /// The largest candidate when it was screened out instead of fitted: one more state could
+    /// not gain what BIC requires of it (see [`ScreenedCandidate`]); `None` when every candidate
+    /// was fitted.
+    pub screened: Option<ScreenedCandidate>,
     /// What the report must say.
     pub flags: Vec<DecayFlag>,
     /// Termination of the selected fit.

@@ -219,6 +219,7 @@ impl Prepared<'_> {
             n_obs: self.m * nc,
             n_params: self.n_params(raw, opts),
             candidates,
+            screened: None,
             flags,
             termination: raw.termination,
             amplitudes: opts.amplitudes,
