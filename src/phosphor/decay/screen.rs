@@ -12,6 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::*;
+use crate::fit::qr::{axpy, dot};
 
 /// Number of log-spaced rates at which the gain of a further state is evaluated.
 pub(super) const SCREEN_GRID: usize = 17;
@@ -33,76 +34,77 @@ impl Prepared<'_> {
         }
         let (m, nc) = (self.m, self.n_ch);
         let n = prev.theta.len();
-        let sw = |i: usize| self.sqrt_w.as_ref().map_or(1.0, |w| w[i]);
-        let beta: f64 = prev
-            .background
-            .iter()
-            .zip(&prev.s)
-            .map(|(b, s)| b * s)
-            .sum();
+        let ones;
+        let sw: &[f64] = match &self.sqrt_w {
+            Some(w) => w,
+            None => {
+                ones = vec![1.0; m];
+                &ones
+            }
+        };
+        let beta: f64 = dot(&prev.background, &prev.s);
         let mut ex = Vec::with_capacity(n * m);
         self.exp_table(&prev.theta, &mut ex);
         // weighted projected residual r = √w (Y s − β − f)
-        let mut r = vec![0.0; m];
-        for i in 0..m {
-            let z: f64 = (0..nc).map(|c| prev.s[c] * self.y[c * m + i]).sum();
-            let f: f64 = (0..n).map(|j| prev.a[j] * ex[j * m + i]).sum();
-            r[i] = sw(i) * (z - beta - f);
+        let mut r = vec![-beta; m];
+        for (c, sc) in prev.s.iter().enumerate() {
+            axpy(*sc, &self.y[c * m..(c + 1) * m], &mut r);
         }
-        // tangent columns: e_j, a_j τ e_j, and 1 with a background; orthonormalised
-        let mut q: Vec<Vec<f64>> = Vec::with_capacity(2 * n + 1);
-        let push = |mut v: Vec<f64>, q: &mut Vec<Vec<f64>>| {
-            let n0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        for (j, aj) in prev.a.iter().enumerate() {
+            axpy(-aj, &ex[j * m..(j + 1) * m], &mut r);
+        }
+        r.iter_mut().zip(sw).for_each(|(v, w)| *v *= w);
+        // tangent columns √w e_j, √w a_j τ e_j (and √w with a background), orthonormalised
+        // by modified Gram–Schmidt, twice; one flat array of columns
+        let mut q: Vec<f64> = Vec::with_capacity((2 * n + 1) * m);
+        let mut v = vec![0.0; m];
+        let n_cols = 2 * n + usize::from(opts.background);
+        for col in 0..n_cols {
+            let (j, kind) = (col / 2, col % 2);
+            for i in 0..m {
+                v[i] = if col == 2 * n {
+                    sw[i]
+                } else if kind == 0 {
+                    sw[i] * ex[j * m + i]
+                } else {
+                    sw[i] * prev.a[j] * self.tau[i] * ex[j * m + i]
+                };
+            }
+            let n0 = dot(&v, &v).sqrt();
             for _ in 0..2 {
-                for u in q.iter() {
-                    let d: f64 = u.iter().zip(&v).map(|(a, b)| a * b).sum();
-                    v.iter_mut().zip(u).for_each(|(x, a)| *x -= d * a);
+                for u in q.chunks_exact(m) {
+                    axpy(-dot(u, &v), u, &mut v);
                 }
             }
-            let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let nv = dot(&v, &v).sqrt();
             if nv > 1e-10 * n0 && nv > 0.0 {
-                v.iter_mut().for_each(|x| *x /= nv);
-                q.push(v);
+                q.extend(v.iter().map(|x| x / nv));
             }
-        };
-        for j in 0..n {
-            push((0..m).map(|i| sw(i) * ex[j * m + i]).collect(), &mut q);
-            push(
-                (0..m)
-                    .map(|i| sw(i) * prev.a[j] * self.tau[i] * ex[j * m + i])
-                    .collect(),
-                &mut q,
-            );
         }
-        if opts.background {
-            push((0..m).map(sw).collect(), &mut q);
-        }
-        for u in &q {
-            let d: f64 = u.iter().zip(&r).map(|(a, b)| a * b).sum();
-            r.iter_mut().zip(u).for_each(|(x, a)| *x -= d * a);
+        for u in q.chunks_exact(m) {
+            axpy(-dot(u, &r), u, &mut r);
         }
         // for each rate of the grid, with e_i = e^{−kτ_i} and r ⊥ the tangent space:
         // rᵀP⊥φ = Σ r_i √w_i e_i and ‖P⊥φ‖² = Σ w_i e_i² − Σ_u (Σ u_i √w_i e_i)²
-        let p = q.len();
-        let mut g = Vec::with_capacity((p + 1) * m);
-        g.extend((0..m).map(|i| r[i] * sw(i)));
-        for u in &q {
-            g.extend((0..m).map(|i| u[i] * sw(i)));
+        let mut g = Vec::with_capacity(q.len() + m);
+        g.extend(r.iter().zip(sw).map(|(a, b)| a * b));
+        for u in q.chunks_exact(m) {
+            g.extend(u.iter().zip(sw).map(|(a, b)| a * b));
         }
         let (lo, hi) = self.log_rate_range();
         let (lo, hi) = (lo - SCREEN_MARGIN, hi + SCREEN_MARGIN);
         let mut best = 0.0_f64;
         let mut e = vec![0.0; m];
-        let mut d = vec![0.0; p + 1];
+        let mut we = vec![0.0; m];
         for k in 0..SCREEN_GRID {
             let rate = (lo + (hi - lo) * k as f64 / (SCREEN_GRID - 1) as f64).exp();
             match self.step {
                 Some(dt) => {
                     let x = (-rate * dt).exp();
-                    let mut v = 1.0;
+                    let mut p = 1.0;
                     for ei in e.iter_mut() {
-                        *ei = v;
-                        v *= x;
+                        *ei = p;
+                        p *= x;
                     }
                 }
                 None => e
@@ -110,13 +112,17 @@ impl Prepared<'_> {
                     .zip(&self.tau)
                     .for_each(|(ei, t)| *ei = (-rate * t).exp()),
             }
-            let pp: f64 = e.iter().zip(&self.wv).map(|(ei, w)| w * ei * ei).sum();
-            for (dj, gj) in d.iter_mut().zip(g.chunks_exact(m)) {
-                *dj = gj.iter().zip(&e).map(|(a, b)| a * b).sum();
-            }
-            let perp = pp - d[1..].iter().map(|v| v * v).sum::<f64>();
+            we.iter_mut()
+                .zip(&e)
+                .zip(&self.wv)
+                .for_each(|((o, ei), w)| *o = w * ei);
+            let pp = dot(&we, &e);
+            let mut chunks = g.chunks_exact(m);
+            let rp = chunks.next().map_or(0.0, |gr| dot(gr, &e));
+            let proj: f64 = chunks.map(|gu| dot(gu, &e).powi(2)).sum();
+            let perp = pp - proj;
             if perp > 1e-9 * pp {
-                best = best.max(d[0] * d[0] / perp);
+                best = best.max(rp * rp / perp);
             }
         }
         let n_obs = (m * nc) as f64;

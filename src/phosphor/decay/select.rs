@@ -526,6 +526,18 @@ impl Prepared<'_> {
 
     /// Standard deviations of ln k for the collapse rule (τ time base).
     pub(super) fn log_rate_sds(&self, raw: &RawFit, opts: &DecayFitOptions) -> Option<Vec<f64>> {
+        if self.n_ch > 1 && opts.amplitudes == AmplitudeModel::SharedSpectrum {
+            return self.log_rate_sds_projected(raw, opts);
+        }
+        self.log_rate_sds_full(raw, opts)
+    }
+
+    /// [`Self::log_rate_sds`] from the covariance over every parameter.
+    pub(super) fn log_rate_sds_full(
+        &self,
+        raw: &RawFit,
+        opts: &DecayFitOptions,
+    ) -> Option<Vec<f64>> {
         let ks: Vec<f64> = raw.theta.iter().map(|t| t.exp()).collect();
         let c_abs: Vec<Vec<f64>> = raw
             .c
@@ -560,5 +572,53 @@ impl Prepared<'_> {
         };
         let (sk, _) = self.uncertainties(&ks, &c_abs, &a_abs, &spec, opts, raw.rss)?;
         Some(sk.iter().zip(&ks).map(|(s, k)| s / k).collect())
+    }
+
+    /// [`Self::log_rate_sds`] of a shared-spectrum fit from the projected curve alone. In the
+    /// Jacobian over (k, a, Λ*, b) of [`Self::uncertainties`] the columns of the rates lie in
+    /// the space x ⊗ s (s the unit spectrum), and every other column splits into a part there
+    /// (e_j ⊗ s, 1 ⊗ s) and a part in x ⊗ s⊥, orthogonal to it. So the rates' block of the
+    /// covariance is that of the m-row Jacobian [−τ a_j e_j, e_j, 1] of the curve Y s, with the
+    /// full model's σ² = RSS/(N − p): the same numbers from a Jacobian n_ch times shorter and
+    /// without the spectrum's columns. `None` when that Jacobian is singular.
+    pub(super) fn log_rate_sds_projected(
+        &self,
+        raw: &RawFit,
+        opts: &DecayFitOptions,
+    ) -> Option<Vec<f64>> {
+        let (m, nc) = (self.m, self.n_ch);
+        let n = raw.theta.len();
+        let mut ex = Vec::with_capacity(n * m);
+        self.exp_table(&raw.theta, &mut ex);
+        let sw = |i: usize| self.sqrt_w.as_ref().map_or(1.0, |w| w[i]);
+        let live: Vec<usize> = (0..n).filter(|j| raw.a[*j] > 0.0).collect();
+        let mut jac = Vec::with_capacity(m * (2 * live.len() + 1));
+        for &j in &live {
+            let e = &ex[j * m..(j + 1) * m];
+            jac.extend((0..m).map(|i| -self.tau[i] * raw.a[j] * e[i] * sw(i)));
+        }
+        for &j in &live {
+            let e = &ex[j * m..(j + 1) * m];
+            jac.extend((0..m).map(|i| e[i] * sw(i)));
+        }
+        if opts.background {
+            jac.extend((0..m).map(sw));
+        }
+        let p1 = jac.len() / m;
+        // the full model's parameter count: rates, amplitudes, the spectrum's free channels
+        // (all positive ones but the largest, which is fixed at 1) and the backgrounds
+        let free_spectrum = raw.s.iter().filter(|v| **v > 0.0).count().saturating_sub(1);
+        let p = 2 * live.len() + free_spectrum + if opts.background { nc } else { 0 };
+        let rows = m * nc;
+        if rows <= p || p1 == 0 {
+            return None;
+        }
+        let inv = crate::fit::stats::inverse_gram(&jac, m, p1)?;
+        let s2 = raw.rss / (rows - p) as f64;
+        let mut out = vec![0.0; n];
+        for (q, &j) in live.iter().enumerate() {
+            out[j] = (inv[q * p1 + q] * s2).max(0.0).sqrt() / raw.theta[j].exp();
+        }
+        Some(out)
     }
 }

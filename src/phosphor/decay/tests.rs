@@ -304,3 +304,29 @@ fn the_screen_predicts_the_gain_of_a_third_state_and_skips_it_only_when_it_canno
     assert!(auto3.screened.is_none(), "{:?}", auto3.screened);
     assert_eq!(auto3.states.len(), 3, "{:?}", auto3.candidates);
 }
+
+#[test]
+fn rate_sds_of_the_projected_curve_equal_those_of_the_full_covariance() {
+    for (amps, rates, bg) in [
+        (&[2.0, 1.0][..], &[0.2, 0.03][..], 0.0),
+        (&[2.0, 1.0][..], &[0.2, 0.03][..], 0.05),
+        (&[1.0, 0.6, 0.4][..], &[0.5, 0.08, 0.012][..], 0.0),
+        (&[3.0][..], &[0.1][..], 0.02),
+    ] {
+        let c = shared_curve(amps, rates, bg);
+        let opts = DecayFitOptions {
+            background: bg != 0.0,
+            ..DecayFitOptions::default()
+        };
+        let prep = Prepared::new(&c);
+        let raw = prep.fit_n(rates.len(), None, false, &opts, &prep.initial_spectrum());
+        let full = prep.log_rate_sds_full(&raw, &opts).unwrap();
+        let proj = prep.log_rate_sds_projected(&raw, &opts).unwrap();
+        for (f, p) in full.iter().zip(&proj) {
+            assert!(
+                (p / f - 1.0).abs() < 1e-8,
+                "{rates:?} bg {bg}: {proj:?} vs {full:?}"
+            );
+        }
+    }
+}
