@@ -280,7 +280,6 @@ fn the_screen_predicts_the_gain_of_a_third_state_and_skips_it_only_when_it_canno
     let ratio = prep.screen_ratio(&raw2, &opts).unwrap();
     let predicted = ratio * needed_fraction * raw2.rss;
     let actual = two.rss - three.rss;
-    println!("screen ratio {ratio:.3}: linearised gain {predicted:.4e}, fitted {actual:.4e}");
     assert!(
         (predicted / actual - 1.0).abs() < 0.25,
         "linearised gain {predicted:e} against the fitted third state's {actual:e}"
@@ -299,7 +298,6 @@ fn the_screen_predicts_the_gain_of_a_third_state_and_skips_it_only_when_it_canno
     let prep3 = Prepared::new(&c3);
     let raw3 = prep3.fit_n(2, None, false, &opts, &prep3.initial_spectrum());
     let ratio3 = prep3.screen_ratio(&raw3, &opts).unwrap();
-    println!("three states: screen ratio of the two-state fit {ratio3:.2}");
     assert!(ratio3 > 2.0, "{ratio3}");
     assert!(auto3.screened.is_none(), "{:?}", auto3.screened);
     assert_eq!(auto3.states.len(), 3, "{:?}", auto3.candidates);
