@@ -16,9 +16,10 @@
 //! Starts: for n ≥ 2 states Prony's linear-prediction estimate (evenly spaced times), then the
 //! (n − 1)-state fit plus a slower state; log-spaced starts only when those fits are doubtful.
 //!
-//! The number of states is chosen by BIC among 1..=max (or fixed), then a collapse rule removes a
-//! state whose amplitude is zero, and merges two rates closer than twice their combined standard
-//! deviation in log k; the report's flags say what happened. Rate uncertainties are the square
+//! The number of states is chosen by BIC among 1..=max (or fixed; the largest candidate is
+//! fitted only if one more state could gain what BIC requires, [`SCREEN_RATIO`]), then a collapse
+//! rule removes a state whose amplitude is zero, and merges two rates closer than twice their
+//! combined standard deviation in log k; the report's flags say what happened. Rate uncertainties are the square
 //! roots of the diagonal of σ² (JᵀJ)⁻¹ over all parameters (rates, amplitudes, spectrum,
 //! background) with σ² = RSS/(N − p) (scaled, like scipy's `curve_fit` default).
 //!
@@ -27,8 +28,9 @@
 //!
 //! Modules: `types` (curve, options, report), `basis` (the exponential basis for varpro),
 //! `prepared` (a curve ready to fit and the fit from one start), `starts` (Prony and log-spaced
-//! starts), `select` (BIC, acceptance, collapse rule, [`fit_decay`]), `uncertainty` (covariance
-//! and the report), `reradiation` (§4.5).
+//! starts), `screen` (the linearised gain of one more state, which decides whether the largest
+//! candidate is fitted), `select` (BIC, acceptance, collapse rule, [`fit_decay`]), `uncertainty`
+//! (covariance and the report), `reradiation` (§4.5).
 
 // Index loops mirror the matrix notation of the maths; `!(a > b)` comparisons deliberately
 // reject NaN along with out-of-range values.

@@ -94,24 +94,11 @@ impl Prepared<'_> {
         let (lo, hi) = self.log_rate_range();
         let (lo, hi) = (lo - SCREEN_MARGIN, hi + SCREEN_MARGIN);
         let mut best = 0.0_f64;
-        let mut e = vec![0.0; m];
+        let mut e = Vec::with_capacity(m);
         let mut we = vec![0.0; m];
         for k in 0..SCREEN_GRID {
-            let rate = (lo + (hi - lo) * k as f64 / (SCREEN_GRID - 1) as f64).exp();
-            match self.step {
-                Some(dt) => {
-                    let x = (-rate * dt).exp();
-                    let mut p = 1.0;
-                    for ei in e.iter_mut() {
-                        *ei = p;
-                        p *= x;
-                    }
-                }
-                None => e
-                    .iter_mut()
-                    .zip(&self.tau)
-                    .for_each(|(ei, t)| *ei = (-rate * t).exp()),
-            }
+            let theta = lo + (hi - lo) * k as f64 / (SCREEN_GRID - 1) as f64;
+            self.exp_table(&[theta], &mut e);
             we.iter_mut()
                 .zip(&e)
                 .zip(&self.wv)
