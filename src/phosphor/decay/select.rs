@@ -62,7 +62,12 @@ impl Prepared<'_> {
         // doubtful.
         let mut first_starts: Vec<Vec<f64>> = Vec::with_capacity(2);
         if n == 1 {
-            first_starts.push(vec![self.log_linear_start()]);
+            let th = self.log_linear_start();
+            first_starts.push(vec![if opts.background {
+                th
+            } else {
+                self.one_state_refined_start(th)
+            }]);
         } else {
             if let Some(st) = self.prony_start(n, opts.background) {
                 first_starts.push(st);

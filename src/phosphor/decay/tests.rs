@@ -328,3 +328,42 @@ fn rate_sds_of_the_projected_curve_equal_those_of_the_full_covariance() {
         }
     }
 }
+
+#[test]
+fn the_refined_one_state_start_is_the_separable_fits_optimum() {
+    // one exact state: the rate itself
+    let c = curve(&[0.11], 0.0);
+    let prep = Prepared::new(&c);
+    let th = prep.one_state_refined_start(prep.log_linear_start());
+    assert!((th.exp() / 0.11 - 1.0).abs() < 1e-9, "{}", th.exp());
+    // two states seen as one (Gauss–Newton converges only linearly here): the refined start is
+    // the optimum of the separable fit — stationary, kept by the fit started there, and at least
+    // as good as where the fit from the log-linear start stops (its ftol leaves θ ~1e-6 off)
+    let opts = DecayFitOptions::default();
+    for c in [
+        shared_curve(&[2.0, 1.0], &[0.2, 0.03], 0.0),
+        noisy_shared_curve(&[1.0, 0.5], &[0.227, 0.0454], 0.004),
+    ] {
+        let prep = Prepared::new(&c);
+        let s0 = prep.initial_spectrum();
+        let th0 = prep.log_linear_start();
+        let th = prep.one_state_refined_start(th0);
+        let mut e = Vec::new();
+        let (_, g1, g2) = prep.one_state_gain(th, &mut e);
+        assert!(g2 < 0.0 && (g1 / g2).abs() < 1e-6, "G' {g1}, G'' {g2}");
+        let from_refined = prep.fit_from(1, &[th], &opts, &s0);
+        assert!(
+            (from_refined.theta[0] - th).abs() < 1e-9,
+            "{th} → {:?}",
+            from_refined.theta
+        );
+        let from_log_linear = prep.fit_from(1, &[th0], &opts, &s0);
+        assert!((th - from_log_linear.theta[0]).abs() < 1e-5);
+        assert!(
+            from_refined.rss <= from_log_linear.rss * (1.0 + 1e-12),
+            "{} vs {}",
+            from_refined.rss,
+            from_log_linear.rss
+        );
+    }
+}
