@@ -100,10 +100,14 @@ fn fixed_two_state_fit_matches_the_fit_through_the_nested_one_state_seed() {
     }
 }
 
-/// A shared-spectrum curve s_c (Σ_j a_j e^{−k_j t}) + b_c with a deterministic ±0.5 % ripple.
-fn shared_curve(amps: &[f64], rates: &[f64], background: f64) -> DecayCurve {
-    let t: Vec<f64> = (0..41).map(|i| 2.0 * i as f64).collect();
-    let s = [0.9, 0.5, 0.2];
+/// Three channels s_c Σ_j a_j e^{−k_j t_i}, each value passed through `sample(i, c, value)`.
+fn shared_samples(
+    t: Vec<f64>,
+    s: [f64; 3],
+    amps: &[f64],
+    rates: &[f64],
+    sample: impl Fn(usize, usize, f64) -> f64,
+) -> DecayCurve {
     let ch = (0..3)
         .map(|c| {
             t.iter()
@@ -114,13 +118,21 @@ fn shared_curve(amps: &[f64], rates: &[f64], background: f64) -> DecayCurve {
                         .zip(rates)
                         .map(|(a, k)| a * (-k * ti).exp())
                         .sum();
-                    let ripple = 1.0 + 0.005 * ((7 * i + 3 * c) as f64).sin();
-                    s[c] * f * ripple + background * (1.0 + 0.1 * c as f64)
+                    sample(i, c, s[c] * f)
                 })
                 .collect()
         })
         .collect();
     DecayCurve::new(t, ch, None).unwrap()
+}
+
+/// A shared-spectrum curve s_c (Σ_j a_j e^{−k_j t}) + b_c with a deterministic ±0.5 % ripple.
+fn shared_curve(amps: &[f64], rates: &[f64], background: f64) -> DecayCurve {
+    let t: Vec<f64> = (0..41).map(|i| 2.0 * i as f64).collect();
+    shared_samples(t, [0.9, 0.5, 0.2], amps, rates, |i, c, v| {
+        let ripple = 1.0 + 0.005 * ((7 * i + 3 * c) as f64).sin();
+        v * ripple + background * (1.0 + 0.1 * c as f64)
+    })
 }
 
 #[test]
@@ -239,25 +251,11 @@ fn joint_solve_declines_an_optimum_with_a_negative_amplitude_and_the_alternation
 /// (a deterministic hash of the sample index, so the test is reproducible).
 fn noisy_shared_curve(amps: &[f64], rates: &[f64], sd: f64) -> DecayCurve {
     let t: Vec<f64> = (0..37).map(|i| 5.0 * i as f64).collect();
-    let s = [0.3, 0.9, 0.4];
-    let ch = (0..3)
-        .map(|c| {
-            t.iter()
-                .enumerate()
-                .map(|(i, ti)| {
-                    let f: f64 = amps
-                        .iter()
-                        .zip(rates)
-                        .map(|(a, k)| a * (-k * ti).exp())
-                        .sum();
-                    let h = ((i * 3 + c) as f64 * 12.9898 + 4.1).sin() * 43758.5453;
-                    // uniform on (−0.5, 0.5) has sd 1/√12
-                    s[c] * f + sd * 12f64.sqrt() * (h - h.floor() - 0.5)
-                })
-                .collect()
-        })
-        .collect();
-    DecayCurve::new(t, ch, None).unwrap()
+    shared_samples(t, [0.3, 0.9, 0.4], amps, rates, |i, c, v| {
+        let h = ((i * 3 + c) as f64 * 12.9898 + 4.1).sin() * 43758.5453;
+        // uniform on (−0.5, 0.5) has sd 1/√12
+        v + sd * 12f64.sqrt() * (h - h.floor() - 0.5)
+    })
 }
 
 #[test]
