@@ -16,9 +16,6 @@ use crate::fit::qr::{axpy, dot};
 
 /// Number of log-spaced rates at which the gain of a further state is evaluated.
 pub(super) const SCREEN_GRID: usize = 17;
-/// How far (in ln k) beyond the plausible rates the grid reaches: e³, where a rate makes a fit
-/// degenerate ([`Prepared::degenerate`]).
-pub(super) const SCREEN_MARGIN: f64 = 3.0;
 
 impl Prepared<'_> {
     /// The largest linearised RSS reduction of adding one state to `prev` (an n − 1-state
@@ -92,7 +89,7 @@ impl Prepared<'_> {
             g.extend(u.iter().zip(sw).map(|(a, b)| a * b));
         }
         let (lo, hi) = self.log_rate_range();
-        let (lo, hi) = (lo - SCREEN_MARGIN, hi + SCREEN_MARGIN);
+        let (lo, hi) = (lo - DEGENERATE_LOG_MARGIN, hi + DEGENERATE_LOG_MARGIN);
         let mut best = 0.0_f64;
         let mut e = Vec::with_capacity(m);
         let mut we = vec![0.0; m];

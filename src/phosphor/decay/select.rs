@@ -24,7 +24,10 @@ impl Prepared<'_> {
             return false;
         }
         let (lo, hi) = self.log_rate_range();
-        if r.theta.iter().any(|t| !(*t >= lo - 3.0 && *t <= hi + 3.0)) {
+        if r.theta
+            .iter()
+            .any(|t| !(*t >= lo - DEGENERATE_LOG_MARGIN && *t <= hi + DEGENERATE_LOG_MARGIN))
+        {
             return true;
         }
         let amp = |j: usize| {

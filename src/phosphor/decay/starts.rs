@@ -115,7 +115,7 @@ impl Prepared<'_> {
                 return None;
             }
             let th = (-z.ln() / dt).ln();
-            if !(th >= lo - 3.0 && th <= hi + 3.0) {
+            if !(th >= lo - DEGENERATE_LOG_MARGIN && th <= hi + DEGENERATE_LOG_MARGIN) {
                 return None;
             }
             theta.push(th);
@@ -206,7 +206,7 @@ impl Prepared<'_> {
     /// starts from the result.
     pub(super) fn one_state_refined_start(&self, theta0: f64) -> f64 {
         let (lo, hi) = self.log_rate_range();
-        let (lo, hi) = (lo - 3.0, hi + 3.0);
+        let (lo, hi) = (lo - DEGENERATE_LOG_MARGIN, hi + DEGENERATE_LOG_MARGIN);
         let mut e = Vec::with_capacity(self.m);
         let mut th = theta0;
         let (mut g, mut g1, mut g2) = self.one_state_gain(th, &mut e);

@@ -7,6 +7,12 @@ use super::*;
 /// Largest number of states the fit offers.
 pub const MAX_STATES: usize = 3;
 
+/// How far (in ln k) a rate may lie outside the plausible range ([`Prepared::log_rate_range`])
+/// before a fit is degenerate: e³, gone before the second sample or constant over the record.
+/// The one-state Newton start and the screen's grid stay within it; Prony starts beyond it are
+/// declined.
+pub(super) const DEGENERATE_LOG_MARGIN: f64 = 3.0;
+
 /// The largest candidate (three states in the automatic mode) is fitted only when the
 /// linearised RSS gain of one more state reaches this fraction of the gain BIC requires
 /// ([`ScreenedCandidate`]). Where a candidate won on BIC its ratio was ≥ 0.89 on 90,000 pixels
