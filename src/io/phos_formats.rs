@@ -19,6 +19,7 @@
 //! | keyframe targets | [`KeyframesCsv`] | `time_s,l_r,l_g,l_b` |
 //! | charging protocol of a decay series | [`ChargingJson`] | `charging.json`: `{"schema": "lumifit.charging/1", "protocol": …}` |
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -296,6 +297,26 @@ fn split_fields(line: &str) -> Vec<String> {
     out
 }
 
+/// [`split_fields`] into a reused buffer: a line without a quote (almost every data row) is
+/// split in place, without copying a field.
+fn split_fields_into<'a>(line: &'a str, out: &mut Vec<Cow<'a, str>>) {
+    out.clear();
+    let bytes = line.as_bytes();
+    if bytes.contains(&b'"') {
+        out.extend(split_fields(line).into_iter().map(Cow::Owned));
+        return;
+    }
+    // ',' is ASCII, so every cut is at a character boundary
+    let mut start = 0;
+    for (i, c) in bytes.iter().enumerate() {
+        if *c == b',' {
+            out.push(Cow::Borrowed(line[start..i].trim()));
+            start = i + 1;
+        }
+    }
+    out.push(Cow::Borrowed(line[start..].trim()));
+}
+
 /// A CSV field: quoted when it holds a comma or a quote.
 fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -311,15 +332,18 @@ impl BatchCsv {
         let text = as_text(bytes, source, "CSV 'id,time_s,r,g,b'")?;
         let mut header: Option<Vec<String>> = None;
         let mut curves: Vec<BatchCurve> = Vec::new();
-        let mut index = HashMap::new();
+        let mut index: HashMap<String, usize> = HashMap::new();
         let mut has_std = false;
+        let mut f: Vec<Cow<str>> = Vec::new();
+        // rows come grouped by id: the previous row's curve is looked up first
+        let mut last: Option<usize> = None;
         for (i, raw) in text.lines().enumerate() {
             let line = i + 1;
             let l = raw.trim();
             if l.is_empty() || l.starts_with('#') {
                 continue;
             }
-            let f = split_fields(l);
+            split_fields_into(l, &mut f);
             let Some(h) = &header else {
                 let h: Vec<String> = f.iter().map(|s| s.to_ascii_lowercase()).collect();
                 let base = ["id", "time_s", "r", "g", "b"];
@@ -370,17 +394,28 @@ impl BatchCsv {
                         )
                     })?;
             }
-            let idx = *index.entry(f[0].clone()).or_insert_with(|| {
-                curves.push(BatchCurve {
-                    id: f[0].clone(),
-                    line,
-                    t_s: vec![],
-                    rgb: [vec![], vec![], vec![]],
-                    std: has_std.then(Vec::new),
-                    lines: vec![],
-                });
-                curves.len() - 1
-            });
+            let idx = match last.filter(|k| curves[*k].id == f[0]) {
+                Some(k) => k,
+                None => match index.get(&*f[0]) {
+                    Some(k) => *k,
+                    None => {
+                        // room for as many rows as the curve before (batches are regular)
+                        let cap = curves.last().map_or(0, |c| c.t_s.len());
+                        let col = || Vec::with_capacity(cap);
+                        curves.push(BatchCurve {
+                            id: f[0].to_string(),
+                            line,
+                            t_s: col(),
+                            rgb: [col(), col(), col()],
+                            std: has_std.then(col),
+                            lines: Vec::with_capacity(cap),
+                        });
+                        index.insert(f[0].to_string(), curves.len() - 1);
+                        curves.len() - 1
+                    }
+                },
+            };
+            last = Some(idx);
             let c = &mut curves[idx];
             c.t_s.push(v[0]);
             for k in 0..3 {
@@ -1570,6 +1605,32 @@ mod tests {
         };
         let text = format!("{BOM}{}", b.to_csv());
         assert_eq!(BatchCsv::parse(text.as_bytes(), "b.csv").unwrap(), b);
+    }
+
+    #[test]
+    fn interleaved_ids_spaces_and_quotes_parse_as_the_general_splitter_reads_them() {
+        // rows of one id need not be adjacent; fields are trimmed; a quoted row takes the
+        // general path, an unquoted one the in-place split: both give the same fields
+        let text = "id,time_s,r,g,b\n a , 0 ,1,2,3\nb,0,4,5,6\n\"a\",1, 0.5 ,1,1.5\nb,2,2,2.5,3\n";
+        let b = BatchCsv::parse(text.as_bytes(), "b.csv").unwrap();
+        assert_eq!(b.curves.len(), 2);
+        let (a, bb) = (&b.curves[0], &b.curves[1]);
+        assert_eq!((a.id.as_str(), bb.id.as_str()), ("a", "b"));
+        assert_eq!(a.t_s, vec![0.0, 1.0]);
+        assert_eq!(a.rgb[0], vec![1.0, 0.5]);
+        assert_eq!(a.lines, vec![2, 4]);
+        assert_eq!(bb.t_s, vec![0.0, 2.0]);
+        assert_eq!(bb.rgb[2], vec![6.0, 3.0]);
+        let mut f = Vec::new();
+        for line in [" a , 0 ,1,,3 ", "\"x,y\", 1 ,\"\"\"q\"\"\",2"] {
+            split_fields_into(line, &mut f);
+            let want = split_fields(line);
+            assert_eq!(
+                f.iter().map(|c| c.to_string()).collect::<Vec<_>>(),
+                want,
+                "{line}"
+            );
+        }
     }
 
     #[test]
