@@ -260,7 +260,10 @@ pub(super) fn collapse_reason(raw: &RawFit, sd_logk: Option<&[f64]>) -> Option<D
 /// further and lowers the RSS by far less than the margin needs (≈ 1.8 % of the RSS for 111
 /// observations) — an empirical argument, not a proof (a multi-start at the full tolerance
 /// could find another minimum); `tests/decay_decisions.rs` checks it on the fixture and on an
-/// independent seed. Its entry in [`DecayFit::candidates`] is then the loose fit.
+/// independent seed. Its entry in [`DecayFit::candidates`] is then the loose fit. Neither is it
+/// continued when it already wins on BIC and the collapse rule removes a state of it beyond
+/// doubt (`Prepared::decisive_collapse`: singular covariance or σ(ln k) > 10): the result is
+/// then the same fewer-state fit, with a `state_dropped` flag whose rate is the loose fit's.
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for an invalid number of states; [`Error::Numerical`] when no
@@ -310,6 +313,10 @@ pub fn fit_decay_full_tolerance(curve: &DecayCurve, opts: &DecayFitOptions) -> R
 /// BIC margin within which a provisional (seed-tolerance) top candidate is continued to the
 /// full tolerance before the selection (see [`fit_decay`]).
 pub(super) const PROVISIONAL_BIC_MARGIN: f64 = 2.0;
+
+/// σ(ln k) beyond which a provisional candidate's collapse is taken as decided without the
+/// full-tolerance fit ([`Prepared::decisive_collapse`]): ten times the collapse rule's 1.
+pub(super) const DECISIVE_LOG_RATE_SD: f64 = 10.0;
 
 fn fit_decay_with(
     curve: &DecayCurve,
@@ -433,7 +440,17 @@ fn fit_decay_with_report(
             .map(|c| c.bic)
             .fold(f64::INFINITY, f64::min);
         if let Some(pos) = candidates.iter().position(|c| c.n_states == hi) {
-            if !(candidates[pos].bic > best_other + PROVISIONAL_BIC_MARGIN) {
+            // … unless it already wins and the collapse rule removes it beyond doubt: then the
+            // full-tolerance fit could only end in the same flag (see `decisive_collapse`)
+            let wins = candidates[pos].bic < best_other;
+            if wins
+                && opts.collapse
+                && raws[hi - 1]
+                    .as_ref()
+                    .is_some_and(|r| prep.decisive_collapse(r, opts))
+            {
+                exact[hi - 1] = true;
+            } else if !(candidates[pos].bic > best_other + PROVISIONAL_BIC_MARGIN) {
                 // fitted again exactly as without the shortcut (the same starts, acceptance
                 // tests and multi-start at the full tolerance), not continued from the loose
                 // end: a continuation skips the acceptance tests and can end elsewhere
@@ -530,6 +547,24 @@ impl Prepared<'_> {
             }
         }
         raw
+    }
+
+    /// Whether the collapse rule removes a state of this (provisional) fit beyond doubt: its
+    /// covariance is singular (a rate gone to the edge of the range, whose column no longer
+    /// reaches the data) or a rate's σ(ln k) exceeds [`DECISIVE_LOG_RATE_SD`], ten times the
+    /// rule's threshold of 1. The full-tolerance fit goes on along the same path — such a rate
+    /// runs further away, typically a fast state that has become a spike at the first sample —
+    /// and the rule drops a state of it too (`StateDropped`; measured on every continued
+    /// candidate of the scipy script's 1000 curves, docs/performance.md, ninth round), so
+    /// continuing it would cost the most iterations of the whole fit for the same decision.
+    pub(super) fn decisive_collapse(&self, raw: &RawFit, opts: &DecayFitOptions) -> bool {
+        if raw.theta.len() < 2 {
+            return false;
+        }
+        match self.log_rate_sds(raw, opts) {
+            None => true,
+            Some(sd) => sd.iter().any(|s| !(*s <= DECISIVE_LOG_RATE_SD)),
+        }
     }
 
     /// Standard deviations of ln k for the collapse rule (τ time base).

@@ -365,3 +365,63 @@ fn the_refined_one_state_start_is_the_separable_fits_optimum() {
         );
     }
 }
+
+#[test]
+fn a_spike_at_the_first_sample_is_dropped_without_the_full_tolerance_refit_and_as_with_it() {
+    // two states, noise, and a first sample 4 % high in every channel: a third, fast state
+    // fits that sample alone and wins on BIC; its rate runs away, so the collapse rule drops it
+    let t: Vec<f64> = (0..37).map(|i| 5.0 * i as f64).collect();
+    let c = shared_samples(
+        t,
+        [0.3, 0.9, 0.4],
+        &[1.0, 0.5],
+        &[0.227, 0.0454],
+        |i, c, v| {
+            let h = ((i * 3 + c) as f64 * 12.9898 + 4.1).sin() * 43758.5453;
+            let noisy = v + 0.002 * 12f64.sqrt() * (h - h.floor() - 0.5);
+            if i == 0 {
+                noisy * 1.04
+            } else {
+                noisy
+            }
+        },
+    );
+    let opts = DecayFitOptions::default();
+    let prep = Prepared::new(&c);
+    let s0 = prep.initial_spectrum();
+    let seed = DecayFitOptions {
+        solver: SolverOptions {
+            ftol: SEED_FTOL,
+            xtol: SEED_XTOL,
+            ..opts.solver
+        },
+        ..opts
+    };
+    let two = prep.fit_n(2, None, false, &opts, &s0);
+    let provisional = prep.fit_monotone(3, Some(&two), true, &seed, &s0);
+    let n_obs = 37 * 3;
+    assert!(
+        bic(provisional.rss, n_obs, prep.n_params(&provisional, &opts))
+            < bic(two.rss, n_obs, prep.n_params(&two, &opts)),
+        "the spike must win on BIC for this test: {provisional:?}"
+    );
+    assert!(
+        prep.decisive_collapse(&provisional, &opts),
+        "{provisional:?}"
+    );
+    let auto = fit_decay(&c, &opts).unwrap();
+    let full = fit_decay_full_tolerance(&c, &opts).unwrap();
+    let names = |f: &DecayFit| f.flags.iter().map(|x| x.name()).collect::<Vec<_>>();
+    assert_eq!(auto.states.len(), 2);
+    assert_eq!(full.states.len(), 2);
+    assert_eq!(names(&auto), names(&full));
+    assert!(names(&auto).contains(&"state_dropped"), "{:?}", auto.flags);
+    // the same two-state result; only the dropped candidate's entry is the loose fit
+    for (a, b) in auto.states.iter().zip(&full.states) {
+        assert!((a.k_per_s / b.k_per_s - 1.0).abs() < 1e-9, "{a:?} {b:?}");
+    }
+    let three = |f: &DecayFit| f.candidates.iter().find(|c| c.n_states == 3).map(|c| c.rss);
+    // the automatic fit kept the provisional candidate as it was (not fitted again)
+    assert_eq!(three(&auto), Some(provisional.rss));
+    assert!(three(&full).unwrap() <= provisional.rss);
+}
