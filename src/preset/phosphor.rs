@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::phosphor::{self, AmplitudeModel, BandSet, DecayFit, Material, PhosphorState};
+use crate::phosphor::{
+    self, AmplitudeModel, BandSet, Candidate, DecayFit, Material, PhosphorState,
+};
 use crate::preset::{
     read_material, Bands, InputFile, MaterialPreset, PhosphorescenceSection, PhosphorescentState,
     Provenance,
@@ -170,9 +172,49 @@ fn json<T: Serialize>(v: &T) -> serde_json::Value {
     serde_json::to_value(v).unwrap_or(serde_json::Value::Null)
 }
 
+/// One fitted candidate. A candidate whose solver ran away (a rate that overflowed to ∞, or a
+/// BIC/RSS that is not finite) was still fitted, and the record says so:
+/// JSON has no ∞, and writing `null` made the whole preset fail its own schema, so the
+/// non-finite rates are left out of `k_per_s` and counted in `diverged_states`, and a
+/// non-finite `bic`/`rss` is omitted, with a `note`. A finite candidate is written as it always was.
+fn candidate_json(c: &Candidate) -> serde_json::Value {
+    let finite_k = c.k_per_s.iter().all(|k| k.is_finite());
+    if finite_k && c.bic.is_finite() && c.rss.is_finite() {
+        return json(c);
+    }
+    let mut m = serde_json::Map::new();
+    m.insert("n_states".into(), serde_json::json!(c.n_states));
+    if c.bic.is_finite() {
+        m.insert("bic".into(), serde_json::json!(c.bic));
+    }
+    if c.rss.is_finite() {
+        m.insert("rss".into(), serde_json::json!(c.rss));
+    }
+    let k: Vec<f64> = c
+        .k_per_s
+        .iter()
+        .copied()
+        .filter(|k| k.is_finite())
+        .collect();
+    m.insert("k_per_s".into(), serde_json::json!(k));
+    m.insert(
+        "diverged_states".into(),
+        serde_json::json!(c.k_per_s.len() - k.len()),
+    );
+    m.insert("termination".into(), json(&c.termination));
+    m.insert(
+        "note".into(),
+        serde_json::json!(
+            "the solver diverged on this candidate (a rate or the BIC/RSS is not finite); \
+             the non-finite values are left out"
+        ),
+    );
+    serde_json::Value::Object(m)
+}
+
 /// The fitted candidates, then the screened-out one (not fitted), if any.
 fn candidates_json(fit: &DecayFit) -> serde_json::Value {
-    let mut v = json(&fit.candidates);
+    let mut v = serde_json::Value::Array(fit.candidates.iter().map(candidate_json).collect());
     if let (Some(sc), serde_json::Value::Array(list)) = (&fit.screened, &mut v) {
         list.push(serde_json::json!({
             "n_states": sc.n_states,
@@ -433,6 +475,47 @@ mod tests {
         let m = material_from_preset(&back, "m.json").unwrap();
         assert_eq!(m.states.len(), 1);
         assert_eq!(m.states[0].lambda, vec![0.5, 0.25, 0.125]);
+    }
+
+    #[test]
+    fn a_candidate_whose_rate_overflowed_is_recorded_without_null_and_says_so() {
+        use crate::fit::Termination;
+        let finite = Candidate {
+            n_states: 2,
+            bic: -120.5,
+            rss: 0.25,
+            k_per_s: vec![0.5, 0.01],
+            termination: Termination::CostConverged,
+        };
+        assert_eq!(candidate_json(&finite), json(&finite));
+        let runaway = Candidate {
+            n_states: 3,
+            bic: f64::NAN,
+            rss: 0.24,
+            k_per_s: vec![f64::INFINITY, 0.5, 0.01],
+            termination: Termination::NonFinite,
+        };
+        let v = candidate_json(&runaway);
+        assert!(!v.to_string().contains("null"), "{v}");
+        assert_eq!(v["k_per_s"], serde_json::json!([0.5, 0.01]));
+        assert_eq!(v["diverged_states"], serde_json::json!(1));
+        assert_eq!(v["rss"], serde_json::json!(0.24));
+        assert!(v.get("bic").is_none());
+        assert!(v["note"].as_str().unwrap().contains("diverged"));
+        // and the preset that holds it passes its own schema
+        let prov = Provenance::new::<&str>("test", &[]);
+        let mut r = record();
+        r.candidates = serde_json::Value::Array(vec![json(&finite), v]);
+        let p = decay_fit_preset(
+            "m",
+            prov,
+            Bands::Rgb,
+            vec![(0.1, vec![0.5, 0.25, 0.125])],
+            &r,
+        )
+        .unwrap();
+        let text = to_json_string(&p).unwrap();
+        assert!(parse_preset(text.as_bytes(), "m.json").is_ok());
     }
 
     #[test]
