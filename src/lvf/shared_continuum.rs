@@ -26,8 +26,10 @@ use crate::lvf::background::cubic_bspline_row;
 use crate::lvf::fit::Passband;
 use crate::spectrum::MultiSpectrum;
 
-/// Knot spacings of the shared spectrum tried, in units of the passband FWHM (wavelength).
-pub const SHARED_KNOT_FWHM: [f64; 2] = [1.5, 1.0];
+/// Knot spacings of the shared spectrum tried, in units of the passband FWHM (wavelength); BIC
+/// chooses. 0.75 × FWHM follows the narrow phosphor bands of a CFL (docs/performance.md, issue 12,
+/// fourteenth session); a clean Hg lamp does not pick it.
+pub const SHARED_KNOT_FWHM: [f64; 3] = [1.5, 1.0, 0.75];
 
 /// Fewest and most intervals of the shared spectrum's spline.
 pub const SHARED_INTERVALS: (usize, usize) = (3, 40);
