@@ -228,6 +228,52 @@ fn a_listed_line_the_image_does_not_show_does_not_bias_the_map_and_is_reported_a
     }
 }
 
+/// A clean CFL (no continuum, no fall-off, 1 % noise) on the Canon 5D Mark II and the SONY
+/// NEX-5N: its violet mercury lines are 1 % of the green Tb³⁺ line but clearly seen in the blue
+/// channel, and 650.8 nm is seen in the red. The absent-line check is per channel and by
+/// significance, so none of them is reported absent (it used to be: "404.656 nm … absent"),
+/// while a fake line listed in the dark gap at 520 nm still is. The Nikon D700 is left out: its
+/// blue channel does not see 405 nm, and saying so is right.
+#[test]
+fn a_clean_cfl_reports_no_seen_line_absent_but_still_flags_a_fake_one() {
+    let Some(db) = database() else { return };
+    let mut fit_lamp = Lamp::cfl();
+    fit_lamp.lines.push(LampLine {
+        nm: 520.0,
+        relative_power: 0.5,
+    });
+    fit_lamp.lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
+    for (k, name) in [CAMERAS[0], CAMERAS[2]].iter().enumerate() {
+        let s = spec(
+            Lamp::cfl(),
+            camera(&db, name),
+            0.01,
+            (VignettingShape::Quadratic, 0.0),
+            None,
+            1 + k as u64,
+        );
+        let (cal, _) = calibrate(&s, &fit_lamp).unwrap();
+        let absent: Vec<&String> = cal
+            .warnings
+            .iter()
+            .filter(|w| w.contains("absent"))
+            .collect();
+        for nm in ["404.656 nm", "407.783 nm", "650.8"] {
+            assert!(
+                !absent
+                    .iter()
+                    .any(|w| w.contains(&format!("lamp line {nm}"))),
+                "{name}: {nm} falsely reported absent: {absent:?}"
+            );
+        }
+        assert!(
+            absent.iter().any(|w| w.contains("lamp line 520 nm")),
+            "{name}: the fake 520 nm line is not reported absent: {:?}",
+            cal.warnings
+        );
+    }
+}
+
 /// Weak violet lines (405/408 nm at 1/20 of their power) under a 10 % flat continuum and
 /// quadratic vignetting 0.3, 1 % noise, on every camera. The SONY NEX-5N rises 7–10× in all
 /// three channels between 400 and 410 nm, right under those lines: the continuum there is an
