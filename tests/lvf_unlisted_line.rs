@@ -47,7 +47,10 @@ fn calibrate(s: &LvfSynthSpec, fit_lamp: &Lamp) -> (LvfCalibration, [f64; 2]) {
     let shifts: Vec<String> = cal
         .lines
         .iter()
-        .map(|l| format!("{:.1}:{:+.3}", l.nm, l.residual_nm))
+        .map(|l| match l.residual_nm {
+            Some(r) => format!("{:.1}:{r:+.3}", l.nm),
+            None => format!("{:.1}:undetermined", l.nm),
+        })
         .collect();
     eprintln!(
         "{} {:?} {:?} seed {}: Δλ400 {:+.3} Δλ700 {:+.3} (σ {:.3}/{:.3}) background {} unlisted {found:?} line shifts {shifts:?}",

@@ -94,8 +94,13 @@ pub struct LineReport {
     pub nm: f64,
     /// Position where the map puts it (px).
     pub px: f64,
-    /// Map wavelength at the line's observed position minus the line's wavelength (nm).
-    pub residual_nm: f64,
+    /// Map wavelength at the line's observed position minus the line's wavelength (nm): the
+    /// shift of its group of unresolved lines, alone, that fits the profile best; `None`
+    /// (`null`) where the profile does not determine that shift.
+    pub residual_nm: Option<f64>,
+    /// Standard uncertainty of `residual_nm` (nm), when determined (whole-profile only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_sigma_nm: Option<f64>,
     /// Fitted amplitude per camera channel (linear units); zeros for the peaks method.
     pub amplitude: [f64; 3],
 }

@@ -760,6 +760,74 @@ fn downsample(profile: &Profile, max_points: usize) -> (Vec<f64>, [Vec<f64>; 3])
     (px, ys)
 }
 
+/// The shift of one group of unresolved lines (`idx`: indices into `pr.lines`), alone, that
+/// fits the profile best at θ, and its standard uncertainty (nm); `None` when the profile does
+/// not determine it ([`LINE_SHIFT_DETERMINED_FWHM`]).
+///
+/// The group moves rigidly, every line keeping its own free amplitude, all other lines where the
+/// map puts them, so that at d = 0 the cost is the fit's own SSE and a chain of lines wider than
+/// the passband (a CFL's 577–612 nm) is drawn as it is. The cost can have more than one basin
+/// (unresolved lines with free amplitudes can swap roles), so its minimum is searched on a grid
+/// of ±½ FWHM first and refined by Brent in its cell. σ comes from the curvature at the minimum,
+/// SSE(d) ≈ SSE* + ½c(d − d*)² and Δχ² = 1 at ½cσ²/s² = 1, with s² the noise variance where the
+/// group's blobs lie (within one FWHM of its lines; shot noise makes it larger there than in the
+/// gaps) from the data's second differences, floored at `s2_floor`. Not determined: a minimum at
+/// the edge of the search, σ above the bound, or another basin within Δχ² of
+/// [`LINE_SHIFT_OTHER_CHI2`].
+fn group_shift(
+    pr: &Problem,
+    theta: &[f64],
+    lams: &[f64],
+    idx: &[usize],
+    fwhm: f64,
+    s2_floor: f64,
+) -> Option<(f64, f64)> {
+    let cost = |d: f64| {
+        let mut l = pr.lines.clone();
+        for &i in idx {
+            l[i] += d;
+        }
+        pr.eval_with(theta, &l).sse
+    };
+    let step = LINE_SHIFT_GRID_FWHM * fwhm;
+    let n_grid = (0.5 / LINE_SHIFT_GRID_FWHM).round() as i32;
+    let grid: Vec<(f64, f64)> = (-n_grid..=n_grid)
+        .map(|i| (f64::from(i) * step, cost(f64::from(i) * step)))
+        .collect();
+    let (d_grid, _) = grid.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let d = brent_min(
+        cost,
+        (d_grid - step).max(-0.5 * fwhm),
+        (d_grid + step).min(0.5 * fwhm),
+        1e-4,
+    );
+    let window: Vec<usize> = (0..lams.len())
+        .filter(|&i| idx.iter().any(|&k| (lams[i] - pr.lines[k]).abs() <= fwhm))
+        .collect();
+    let s2 = ((0..3)
+        .map(|c| {
+            let v: Vec<f64> = window.iter().map(|&i| pr.y[c][i]).collect();
+            profile_noise(&v).powi(2)
+        })
+        .sum::<f64>()
+        / 3.0)
+        .max(s2_floor);
+    let h = LINE_SHIFT_STEP_FWHM * fwhm;
+    let (c0, cm, cp) = (cost(d), cost(d - h), cost(d + h));
+    let curv = (cp - 2.0 * c0 + cm) / (h * h);
+    let sigma = if curv > 0.0 {
+        (2.0 * s2 / curv).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    let other_basin = grid
+        .iter()
+        .filter(|(di, _)| (di - d).abs() > 2.0 * step)
+        .any(|(_, ci)| (ci - c0) / s2 < LINE_SHIFT_OTHER_CHI2);
+    (!other_basin && d.abs() < 0.5 * fwhm - h && sigma <= LINE_SHIFT_DETERMINED_FWHM * fwhm)
+        .then_some((d, sigma))
+}
+
 /// Lines grouped when closer than `gap` nm (consecutive).
 pub(crate) fn group_lines(lines: &[f64], gap: f64) -> Vec<Vec<usize>> {
     let mut groups: Vec<Vec<usize>> = Vec::new();
@@ -1162,56 +1230,44 @@ pub fn calibrate_whole_profile(
         .filter(|&i| lines[i] >= lam_lo - 0.5 * fwhm && lines[i] <= lam_hi + 0.5 * fwhm)
         .collect();
     let in_lines: Vec<f64> = in_range.iter().map(|&i| lines[i]).collect();
-    // Lines closer than half the FWHM are not resolved: each such group is represented by one
-    // line at its centroid weighted by the lamp's nominal relative powers (the fitted split of
-    // amplitude between unresolved lines is arbitrary), and shifted as a whole.
+    // Lines closer than half the FWHM are not resolved: each such group is shifted alone
+    // ([`group_shift`]). (Representing a group by one line at its lamp-power centroid, as before,
+    // could not draw a chain wider than the passband, as a CFL's 577–612 nm lines, and moved it
+    // by up to half the FWHM; a line too weak to place got an arbitrary shift.)
     let groups = group_lines(&in_lines, 0.5 * fwhm);
-    let centroids: Vec<f64> = groups
-        .iter()
+    let peak_y = (0..3)
+        .flat_map(|c| pr.y[c].iter().copied())
+        .fold(0.0f64, f64::max);
+    let s2_floor = (peak_y / 65535.0).powi(2);
+    // per group: (shift, σ) when determined, and the group's amplitude (its weight in the RMS)
+    let per_group: Vec<(Option<(f64, f64)>, f64)> = groups
+        .par_iter()
         .map(|g| {
-            let w: Vec<f64> = g
+            // A group with no amplitude in any channel is not observed.
+            let amp: f64 = g
                 .iter()
-                .map(|&k| lamp.lines[in_range[k]].relative_power.max(1e-12))
-                .collect();
-            let sw: f64 = w.iter().sum();
-            g.iter()
-                .zip(&w)
-                .map(|(&k, wk)| in_lines[k] * wk)
-                .sum::<f64>()
-                / sw
+                .map(|&k| {
+                    (0..3)
+                        .map(|c| eval.alpha[c][N_BG + in_range[k]])
+                        .sum::<f64>()
+                })
+                .sum();
+            if amp <= 0.0 {
+                return (None, amp);
+            }
+            let idx: Vec<usize> = g.iter().map(|&k| in_range[k]).collect();
+            (group_shift(&pr, &theta, &lams, &idx, fwhm, s2_floor), amp)
         })
         .collect();
-    let mut shifts = vec![0.0; in_lines.len()];
+    let mut shifts: Vec<Option<(f64, f64)>> = vec![None; in_lines.len()];
     let mut group_res: Vec<(f64, f64)> = Vec::new();
-    let mut all_centroids = lines.clone();
-    // the lines out of range keep their wavelengths; the in-range ones are replaced by centroids
-    all_centroids.retain(|l| !in_lines.contains(l));
-    let n_out = all_centroids.len();
-    all_centroids.extend(centroids.iter().copied());
-    all_centroids.extend(pr.lines[lines.len()..].iter().copied());
-    for (gi, g) in groups.iter().enumerate() {
-        // A group with no amplitude in any channel is not observed.
-        let amp: f64 = g
-            .iter()
-            .map(|&k| {
-                (0..3)
-                    .map(|c| eval.alpha[c][N_BG + in_range[k]])
-                    .sum::<f64>()
-            })
-            .sum();
-        if amp <= 0.0 {
-            continue;
-        }
-        let cost = |d: f64| {
-            let mut l = all_centroids.clone();
-            l[n_out + gi] += d;
-            pr.eval_with(&theta, &l).sse
-        };
-        let d = brent_min(cost, -0.5 * fwhm, 0.5 * fwhm, 1e-4);
+    for (g, (res, amp)) in groups.iter().zip(&per_group) {
         for &k in g {
-            shifts[k] = d;
+            shifts[k] = *res;
         }
-        group_res.push((d, amp));
+        if let Some((d, _)) = res {
+            group_res.push((*d, *amp));
+        }
     }
     let sw: f64 = group_res.iter().map(|(_, a)| a * a).sum();
     let rms = if group_res.is_empty() || sw <= 0.0 {
@@ -1230,7 +1286,8 @@ pub fn calibrate_whole_profile(
         .map(|(k, &i)| LineReport {
             nm: lines[i],
             px: map.inverse(lines[i]).unwrap_or(f64::NAN),
-            residual_nm: shifts[k],
+            residual_nm: shifts[k].map(|(d, _)| d),
+            residual_sigma_nm: shifts[k].map(|(_, s)| s),
             amplitude: std::array::from_fn(|c| eval.alpha[c][N_BG + i]),
         })
         .collect();
@@ -1549,6 +1606,18 @@ pub fn calibrate_whole_profile(
     Ok(cal)
 }
 
+/// Grid step of the search for a line group's shift, in FWHM (±½ FWHM in 21 steps).
+const LINE_SHIFT_GRID_FWHM: f64 = 0.05;
+/// A second basin of the shift cost within this Δχ² of the minimum makes the shift ambiguous.
+const LINE_SHIFT_OTHER_CHI2: f64 = 4.0;
+/// Step of the finite-difference curvature of a line group's shift cost, in FWHM.
+const LINE_SHIFT_STEP_FWHM: f64 = 0.02;
+/// A line group's residual is reported when the profile determines its shift to this fraction of
+/// the FWHM (1σ) and the shift lies inside the search interval (±½ FWHM). Unresolved lines with
+/// free amplitudes can trade their split for a shift (Hg 404.7/407.8 on a camera that hardly sees
+/// 405 nm, a CFL's 542.4/546.1 nm), and lines too weak to place leave the cost flat: their
+/// residual is `null`, not a number that looks like a misplaced line.
+const LINE_SHIFT_DETERMINED_FWHM: f64 = 0.04;
 /// ΔBIC under which another identification of the blobs is reported as ambiguous.
 const IDENT_AMBIGUOUS_DELTA_BIC: f64 = 10.0;
 /// Offset-only fits up to this multiple of the best SSE are refined as other identifications.

@@ -154,7 +154,8 @@ pub fn calibrate_peaks(
         .map(|((&nm, &px), &r)| LineReport {
             nm,
             px,
-            residual_nm: r,
+            residual_nm: Some(r),
+            residual_sigma_nm: None,
             amplitude: [0.0; 3],
         })
         .collect();
