@@ -768,11 +768,12 @@ fn downsample(profile: &Profile, max_points: usize) -> (Vec<f64>, [Vec<f64>; 3])
 /// map puts them, so that at d = 0 the cost is the fit's own SSE and a chain of lines wider than
 /// the passband (a CFL's 577–612 nm) is drawn as it is. The cost can have more than one basin
 /// (unresolved lines with free amplitudes can swap roles), so its minimum is searched on a grid
-/// of ±½ FWHM first and refined by Brent in its cell. σ comes from the curvature at the minimum,
-/// SSE(d) ≈ SSE* + ½c(d − d*)² and Δχ² = 1 at ½cσ²/s² = 1, with s² the noise variance where the
+/// of ±½ FWHM first and refined by Brent in its cell. σ is half the width of the interval where
+/// Δχ² = (SSE(d) − SSE*)/s² ≤ 1 (profile likelihood: a blend's cost can be flat-bottomed, where
+/// the curvature at the minimum would understate it), with s² the noise variance where the
 /// group's blobs lie (within one FWHM of its lines; shot noise makes it larger there than in the
-/// gaps) from the data's second differences, floored at `s2_floor`. Not determined: a minimum at
-/// the edge of the search, σ above the bound, or another basin within Δχ² of
+/// gaps) from the data's second differences, floored at `s2_floor`. Not determined: an interval
+/// that reaches the edge of the search, σ above the bound, or another basin within Δχ² of
 /// [`LINE_SHIFT_OTHER_CHI2`].
 fn group_shift(
     pr: &Problem,
@@ -812,20 +813,36 @@ fn group_shift(
         .sum::<f64>()
         / 3.0)
         .max(s2_floor);
-    let h = LINE_SHIFT_STEP_FWHM * fwhm;
-    let (c0, cm, cp) = (cost(d), cost(d - h), cost(d + h));
-    let curv = (cp - 2.0 * c0 + cm) / (h * h);
-    let sigma = if curv > 0.0 {
-        (2.0 * s2 / curv).sqrt()
-    } else {
-        f64::INFINITY
+    // σ: half the width of {d : Δχ²(d) ≤ 1} (the profile-likelihood interval; a blend's cost can
+    // be flat-bottomed, where the curvature at the minimum would understate it), each end
+    // bracketed by the first grid point beyond d with Δχ² > 1 and bisected.
+    let c0 = cost(d);
+    let dchi2 = |x: f64| (cost(x) - c0) / s2;
+    let crossing = |outward: f64| -> Option<f64> {
+        let far = grid
+            .iter()
+            .filter(|(di, ci)| (di - d) * outward > 0.0 && (ci - c0) / s2 > 1.0)
+            .min_by(|a, b| ((a.0 - d) * outward).total_cmp(&((b.0 - d) * outward)))?;
+        let (mut inside, mut outside) = (d, far.0);
+        for _ in 0..LINE_SHIFT_BISECTIONS {
+            let mid = 0.5 * (inside + outside);
+            if dchi2(mid) > 1.0 {
+                outside = mid;
+            } else {
+                inside = mid;
+            }
+        }
+        Some(0.5 * (inside + outside))
+    };
+    let sigma = match (crossing(-1.0), crossing(1.0)) {
+        (Some(lo), Some(hi)) => 0.5 * (hi - lo),
+        _ => f64::INFINITY,
     };
     let other_basin = grid
         .iter()
         .filter(|(di, _)| (di - d).abs() > 2.0 * step)
         .any(|(_, ci)| (ci - c0) / s2 < LINE_SHIFT_OTHER_CHI2);
-    (!other_basin && d.abs() < 0.5 * fwhm - h && sigma <= LINE_SHIFT_DETERMINED_FWHM * fwhm)
-        .then_some((d, sigma))
+    (!other_basin && sigma <= LINE_SHIFT_DETERMINED_FWHM * fwhm).then_some((d, sigma))
 }
 
 /// Lines grouped when closer than `gap` nm (consecutive).
@@ -1610,8 +1627,9 @@ pub fn calibrate_whole_profile(
 const LINE_SHIFT_GRID_FWHM: f64 = 0.05;
 /// A second basin of the shift cost within this Δχ² of the minimum makes the shift ambiguous.
 const LINE_SHIFT_OTHER_CHI2: f64 = 4.0;
-/// Step of the finite-difference curvature of a line group's shift cost, in FWHM.
-const LINE_SHIFT_STEP_FWHM: f64 = 0.02;
+/// Bisections of each end of a line group's Δχ² = 1 interval (a grid cell of 0.05 FWHM to
+/// 0.05 FWHM / 2¹²: 0.0003 nm at 25 nm).
+const LINE_SHIFT_BISECTIONS: usize = 12;
 /// A line group's residual is reported when the profile determines its shift to this fraction of
 /// the FWHM (1σ) and the shift lies inside the search interval (±½ FWHM). Unresolved lines with
 /// free amplitudes can trade their split for a shift (Hg 404.7/407.8 on a camera that hardly sees
