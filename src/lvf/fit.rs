@@ -1631,7 +1631,7 @@ const LINE_SHIFT_OTHER_CHI2: f64 = 4.0;
 /// 0.05 FWHM / 2¹²: 0.0003 nm at 25 nm).
 const LINE_SHIFT_BISECTIONS: usize = 12;
 /// A line group's residual is reported when the profile determines its shift to this fraction of
-/// the FWHM (1σ) and the shift lies inside the search interval (±½ FWHM). Unresolved lines with
+/// the FWHM (1σ, a Δχ² ≤ 1 interval inside the search's ±½ FWHM). Unresolved lines with
 /// free amplitudes can trade their split for a shift (Hg 404.7/407.8 on a camera that hardly sees
 /// 405 nm, a CFL's 542.4/546.1 nm), and lines too weak to place leave the cost flat: their
 /// residual is `null`, not a number that looks like a misplaced line.
