@@ -1252,10 +1252,14 @@ pub fn calibrate_whole_profile(
     // could not draw a chain wider than the passband, as a CFL's 577–612 nm lines, and moved it
     // by up to half the FWHM; a line too weak to place got an arbitrary shift.)
     let groups = group_lines(&in_lines, 0.5 * fwhm);
-    let peak_y = (0..3)
-        .flat_map(|c| pr.y[c].iter().copied())
-        .fold(0.0f64, f64::max);
-    let s2_floor = (peak_y / 65535.0).powi(2);
+    let peak = profile
+        .values
+        .iter()
+        .flatten()
+        .cloned()
+        .fold(f64::MIN, f64::max)
+        .max(1e-300);
+    let s2_floor = (peak / 65535.0).powi(2);
     // per group: (shift, σ) when determined, and the group's amplitude (its weight in the RMS)
     let per_group: Vec<(Option<(f64, f64)>, f64)> = groups
         .par_iter()
@@ -1345,13 +1349,6 @@ pub fn calibrate_whole_profile(
         background: background_curve,
         falloff: fall.clone(),
     };
-    let peak = profile
-        .values
-        .iter()
-        .flatten()
-        .cloned()
-        .fold(f64::MIN, f64::max)
-        .max(1e-300);
     // The free offset and the spline (a partition of unity) share the constant, so the spline
     // alone is not meaningful: the continuum's size is that of everything that is not lines
     // (offset + continuum), above its own minimum, when a continuum was fitted.
@@ -1938,12 +1935,8 @@ fn assess(
     // (σ_a = noise / ‖column‖, the column being the line's passband blob times the fall-off).
     // It is absent when neither it nor any listed line within half the FWHM (an unresolved
     // group, whose split of amplitude is arbitrary) is detected in any channel.
-    let brightest: [f64; 3] = std::array::from_fn(|c| {
-        cal.lines
-            .iter()
-            .map(|l| l.amplitude.get(c).copied().unwrap_or(0.0))
-            .fold(0.0, f64::max)
-    });
+    let brightest: [f64; 3] =
+        std::array::from_fn(|c| cal.lines.iter().map(|l| l.amplitude[c]).fold(0.0, f64::max));
     let fwhm_fit = pr.fwhm(theta);
     let v_fit = pr.falloff_coefficients(theta);
     let column_norm = |nm: f64| {
@@ -1962,7 +1955,7 @@ fn assess(
         .map(|l| {
             let norm = column_norm(l.nm);
             (0..3).any(|c| {
-                let a = l.amplitude.get(c).copied().unwrap_or(0.0);
+                let a = l.amplitude[c];
                 a > ABSENT_RELATIVE * brightest[c] && a * norm >= ABSENT_SIGMA * noise[c]
             })
         })
