@@ -132,7 +132,8 @@ fn cfl_with_its_phosphor_continuum_and_vignetting_stays_within_the_measured_boun
         for l in &cal.lines {
             if let (Some(r), Some(sd)) = (l.residual_nm, l.residual_sigma_nm) {
                 assert!(
-                    r.abs() < 0.5 * cal.fwhm_nm - 1.0 && sd <= 0.04 * cal.fwhm_nm,
+                    r.abs() < 0.5 * cal.fwhm_nm - SHIFT_EDGE_MARGIN_NM
+                        && sd <= SHIFT_SIGMA_FWHM * cal.fwhm_nm,
                     "{name}: {} nm reported {r:+.2} ± {sd:.2} nm",
                     l.nm
                 );

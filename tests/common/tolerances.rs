@@ -252,6 +252,13 @@ pub mod lvf_continuum {
     /// fits best 1.5 ± 0.3 nm lower when moved alone, the continuum taking part of its blob — the
     /// continuum trading with a line that the map (0.3 nm) averages out.
     pub const CFL_LINE_RMS_BOUND_NM: f64 = 1.5;
+    /// A reported line residual is a placed one: its σ within the library's 0.04 FWHM
+    /// (`LINE_SHIFT_DETERMINED_FWHM`) and the shift clear of the search's ±½ FWHM edge, where the
+    /// old search stopped (12.56 nm on the CFL) — by more than the 1 nm that a determined shift's
+    /// σ can reach.
+    pub const SHIFT_SIGMA_FWHM: f64 = 0.04;
+    /// See [`SHIFT_SIGMA_FWHM`].
+    pub const SHIFT_EDGE_MARGIN_NM: f64 = 1.0;
     /// A noise-free lamp: a placed line's shift is 0 up to the grid-and-Brent tolerance and the
     /// image's 16-bit quantisation (measured ≤ 0.01 nm on Hg and CFL, three cameras).
     pub const CLEAN_LINE_RESIDUAL_NM: f64 = 0.03;
