@@ -6,6 +6,11 @@
 //! wavelengths ([`MultiSpectrum::from_table`]) and no negative sensitivity (an error naming the
 //! file, the line and the channel). Without a file the embedded default camera is used
 //! (`calib/camera_default.csv`, Nikon 5100 NPL measurements).
+//!
+//! A camera may also be given in the Academy spectral-data JSON of `rawtoaces` (AMPAS,
+//! `{"header": {…}, "spectral_data": {"units": …, "index": {"main": ["R","G","B"]}, "data":
+//! {"main": {"380": [r, g, b], …}}}}`, e.g. `../shared/data/camera/rawtoaces-data/*.json`, measured
+//! 380–780 nm), told apart from CSV by its first character `{`; [`parse_camera_json`].
 
 use std::path::Path;
 
@@ -83,7 +88,7 @@ pub fn read_camera(path: Option<&Path>) -> Result<Camera> {
             None => {
                 let (bytes, source) = super::read_input(p)?;
                 Ok(Camera {
-                    curves: parse_camera(&bytes, &source)?,
+                    curves: parse_camera_file(&bytes, &source)?,
                     source,
                 })
             }
@@ -91,11 +96,144 @@ pub fn read_camera(path: Option<&Path>) -> Result<Camera> {
         Some(p) => {
             let (bytes, source) = super::read_input(p)?;
             Ok(Camera {
-                curves: parse_camera(&bytes, &source)?,
+                curves: parse_camera_file(&bytes, &source)?,
                 source,
             })
         }
     }
+}
+
+/// A camera file of either format: Academy spectral-data JSON when its first character (after a
+/// byte-order mark and white space) is `{`, otherwise a CSV table ([`parse_camera`]).
+///
+/// # Errors
+/// Those of [`parse_camera_json`] or [`parse_camera`].
+pub fn parse_camera_file(bytes: &[u8], source: &str) -> Result<MultiSpectrum> {
+    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    match body.iter().find(|b| !b.is_ascii_whitespace()) {
+        Some(b'{') => parse_camera_json(bytes, source),
+        _ => parse_camera(bytes, source),
+    }
+}
+
+#[derive(serde::Deserialize)]
+struct AcademyDocument {
+    spectral_data: AcademySpectralData,
+}
+
+#[derive(serde::Deserialize)]
+struct AcademySpectralData {
+    index: AcademyIndex,
+    data: AcademyData,
+}
+
+#[derive(serde::Deserialize)]
+struct AcademyIndex {
+    main: Vec<String>,
+}
+
+#[derive(serde::Deserialize)]
+struct AcademyData {
+    main: std::collections::BTreeMap<String, Vec<f64>>,
+}
+
+/// The 1-based line of the last occurrence of `"key"` in `text` (0 when absent): where a
+/// semantic error in a JSON file is reported.
+fn json_key_line(text: &str, key: &str) -> usize {
+    let needle = format!("\"{key}\"");
+    text.rfind(&needle)
+        .map_or(0, |at| text[..at].matches('\n').count() + 1)
+}
+
+/// Parses a camera in the Academy spectral-data JSON of `rawtoaces` (module docs): the channels
+/// named R, G and B in `spectral_data.index.main` (any order, case-insensitive), one wavelength
+/// per key of `spectral_data.data.main`, each an array of as many values as the index names.
+/// The header and `units` (relative sensitivities) are not needed and not read.
+///
+/// # Errors
+/// [`Error::Parse`] naming the source, and the line where it can be found, for malformed JSON or a
+/// missing field (serde's line and column), an index that is not R, G, B, a wavelength key that is
+/// not a finite number, an entry with the wrong number of values, or a negative sensitivity; the
+/// spectrum errors of [`MultiSpectrum::new`] (wavelengths strictly increasing, at least two).
+pub fn parse_camera_json(bytes: &[u8], source: &str) -> Result<MultiSpectrum> {
+    let doc: AcademyDocument = super::parse_json(bytes, source)?;
+    let text = crate::table::as_text(bytes, source, "JSON text")?;
+    let names = &doc.spectral_data.index.main;
+    let at = |want: &str| {
+        names
+            .iter()
+            .position(|n| n.trim().eq_ignore_ascii_case(want))
+    };
+    let order = match (names.len(), at("R"), at("G"), at("B")) {
+        (3, Some(r), Some(g), Some(b)) => [r, g, b],
+        _ => {
+            return Err(Error::parse(
+                source,
+                json_key_line(text, "index"),
+                format!(
+                    "spectral_data.index.main is {names:?}; expected the three channels \"R\", \"G\", \"B\""
+                ),
+            ))
+        }
+    };
+    let mut rows: Vec<(f64, [f64; 3])> = Vec::with_capacity(doc.spectral_data.data.main.len());
+    for (key, values) in &doc.spectral_data.data.main {
+        let line = json_key_line(text, key);
+        let nm = key
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
+                Error::parse(
+                    source,
+                    line,
+                    format!("spectral_data.data.main key \"{key}\" is not a wavelength; expected a number of nm"),
+                )
+            })?;
+        if values.len() != 3 {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "{} values at {key} nm; expected 3 (one per channel of spectral_data.index.main)",
+                    values.len()
+                ),
+            ));
+        }
+        let v = order.map(|i| values[i]);
+        if let Some(c) = v.iter().position(|x| *x < 0.0) {
+            return Err(Error::parse(
+                source,
+                line,
+                format!(
+                    "{} sensitivity {} at {key} nm is negative; expected values ≥ 0",
+                    ["R", "G", "B"][c],
+                    v[c]
+                ),
+            ));
+        }
+        rows.push((nm, v));
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(w) = rows.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(Error::parse(
+            source,
+            0,
+            format!(
+                "wavelength {} nm is given twice in spectral_data.data.main; expected each once",
+                w[0].0
+            ),
+        ));
+    }
+    MultiSpectrum::new(
+        source,
+        rows.iter().map(|r| r.0).collect(),
+        vec!["r".into(), "g".into(), "b".into()],
+        (0..3)
+            .map(|c| rows.iter().map(|r| r.1[c]).collect())
+            .collect(),
+    )
 }
 
 /// `FILE.csv:NAME` with an existing FILE.csv: one camera of a database table.
@@ -251,5 +389,79 @@ mod tests {
         assert!(cam.on_grid(&[100.0, 200.0]).is_err());
         let g = cam.on_grid(&[450.0, 550.0, 650.0]).unwrap();
         assert_eq!(g[1].len(), 3);
+    }
+
+    const ACADEMY: &str = r#"{
+  "header": {"manufacturer": "Test", "model": "Cam"},
+  "spectral_data": {
+    "units": "relative",
+    "index": {"main": ["B", "G", "R"]},
+    "data": {"main": {
+      "400": [0.5, 0.2, 0.1],
+      "1000": [0.0, 0.1, 0.9],
+      "405.5": [0.6, 0.3, 0.1]
+    }}
+  }
+}"#;
+
+    #[test]
+    fn an_academy_json_camera_is_read_in_wavelength_order_with_its_channels_named() {
+        let cam = parse_camera_file(ACADEMY.as_bytes(), "cam.json").unwrap();
+        assert_eq!(cam.wavelengths(), &[400.0, 405.5, 1000.0]);
+        // index B, G, R: the first value of each entry is blue
+        assert_eq!(cam.channel(0), &[0.1, 0.1, 0.9]);
+        assert_eq!(cam.channel(2), &[0.5, 0.6, 0.0]);
+        // the same bytes behind a byte-order mark and white space
+        let bom = [b"\xEF\xBB\xBF \n".as_slice(), ACADEMY.as_bytes()].concat();
+        assert_eq!(
+            parse_camera_file(&bom, "bom.json").unwrap().channel(1),
+            cam.channel(1)
+        );
+    }
+
+    #[test]
+    fn a_bad_academy_json_camera_is_refused_naming_the_line_and_what_was_expected() {
+        let cases = [
+            (
+                ACADEMY.replace("[0.6, 0.3, 0.1]", "[0.6, -0.3, 0.1]"),
+                "line 9",
+                "negative",
+            ),
+            (
+                ACADEMY.replace("[0.6, 0.3, 0.1]", "[0.6, 0.3]"),
+                "line 9",
+                "expected 3",
+            ),
+            (
+                ACADEMY.replace("\"405.5\"", "\"blue\""),
+                "line 9",
+                "not a wavelength",
+            ),
+            (
+                ACADEMY.replace("[\"B\", \"G\", \"R\"]", "[\"X\", \"Y\", \"Z\"]"),
+                "line 5",
+                "\"R\", \"G\", \"B\"",
+            ),
+            (
+                ACADEMY.replace("\"405.5\"", "\"400.0\""),
+                "cam.json",
+                "given twice",
+            ),
+            (
+                ACADEMY.replace("\"data\"", "\"dat\""),
+                "cam.json",
+                "missing field `data`",
+            ),
+            (ACADEMY.replace("0.9]", "0.9"), "line 9", "expected f64"),
+        ];
+        for (text, place, what) in cases {
+            let e = parse_camera_file(text.as_bytes(), "cam.json")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("cam.json") && e.contains(place) && e.contains(what),
+                "{e}"
+            );
+        }
     }
 }

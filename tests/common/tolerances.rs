@@ -294,6 +294,21 @@ pub mod lvf_continuum {
     pub const FITTED_UNLISTED_POSITION_TOL_NM: f64 = 0.5;
 }
 
+/// `tests/lvf_camera_mismatch.rs` (issue 12: "any camera" — the camera given to `lvf calibrate`
+/// is a measurement of the camera, never the camera itself).
+pub mod lvf_camera_mismatch {
+    /// Issue 12's bound for an Hg lamp under a continuum ≤ 10 % with vignetting ≤ 0.3 at 1 %
+    /// noise. Measured with the Weta 5D Mark II curves rendering and the Jiang 5D Mark II or the
+    /// 5D Mark III curves given: 0.010–0.026 nm (the shared spectrum rejected, BIC keeping the
+    /// per-channel passband continuum).
+    pub const HG_TOL_NM: f64 = 0.15;
+    /// Issue 12's bound for a CFL under its phosphor continuum at 1 % noise. Measured the same
+    /// way (seed 2): Jiang curves 0.075 / 0.164 nm (BIC takes the shared spectrum through them),
+    /// 5D Mark III curves 0.038 / 0.092 nm (per-channel passband continuum); the matching Weta
+    /// curves 0.040 / 0.057 nm (shared spectrum).
+    pub const CFL_TOL_NM: f64 = 0.3;
+}
+
 /// `tests/lvf_sigma_coverage.rs` (issue 12: a σ that covers the error).
 pub mod lvf_sigma_coverage {
     /// The interval judged: ±2σ, a 95 % interval for a Gaussian error.

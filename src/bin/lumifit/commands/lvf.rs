@@ -125,8 +125,8 @@ pub struct CalibrateArgs {
     /// the axis is solved too, without only its variation across the axis is used.
     #[arg(long, requires = "flat")]
     pub flat_spectrum: Option<String>,
-    /// The camera's sensitivities (CSV wavelength_nm,r,g,b, or DB.csv:NAME of the Jiang
-    /// database): adds a continuum spectrum shared by the three channels to the candidates
+    /// The camera's sensitivities (CSV wavelength_nm,r,g,b, DB.csv:NAME of the Jiang
+    /// database, or Academy spectral-data JSON as in rawtoaces-data): adds a continuum spectrum shared by the three channels to the candidates
     /// (the image must be linear raw, channels as in the table), and is the camera
     /// --flat-spectrum is seen through.
     #[arg(long)]

@@ -52,7 +52,8 @@ pub struct TransmissionArgs {
     /// Target reflectance CSV wavelength_nm,value.
     #[arg(long)]
     pub target: Option<PathBuf>,
-    /// Camera sensitivities CSV wavelength_nm,r,g,b (default: calib/camera_default.csv).
+    /// Camera sensitivities: CSV wavelength_nm,r,g,b, DATABASE.csv:NAME, or Academy spectral-data
+    /// JSON as in rawtoaces-data (default: calib/camera_default.csv).
     #[arg(long)]
     pub camera: Option<PathBuf>,
     /// Band model.

@@ -36,8 +36,8 @@ pub struct RecoverArgs {
     /// over its pixel window, peak 1).
     #[arg(long)]
     pub bands: PathBuf,
-    /// Camera sensitivities CSV `wavelength_nm,r,g,b` (default: calib/camera_default.csv, Nikon
-    /// 5100 NPL).
+    /// Camera sensitivities: CSV `wavelength_nm,r,g,b`, `DATABASE.csv:NAME`, or Academy
+    /// spectral-data JSON as in rawtoaces-data (default: calib/camera_default.csv, Nikon 5100 NPL).
     #[arg(long)]
     pub camera: Option<PathBuf>,
     /// Region `x,y,w,h` (source pixels) to average across the filter; default: the calibration's

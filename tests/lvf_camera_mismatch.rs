@@ -1,0 +1,224 @@
+//! Issue 12, "any camera": the camera curves a user gives to `lvf calibrate --camera` are a
+//! measurement of their camera, never the camera itself. Here the lamp is rendered through one
+//! measurement of the Canon 5D Mark II (Weta's, 380–780 nm, rawtoaces-data Academy JSON) and
+//! calibrated with another (Jiang et al. 2013, 400–720 nm) and with a different camera's curves
+//! (the 5D Mark III): a continuum shared through the wrong curves must not pull the map (BIC then
+//! keeps the per-channel continuum), and the matched curves must still give the shared spectrum.
+//! All read in place from `../shared/data/camera/` (skip message when absent, failure when
+//! `LUMIFIT_REQUIRE_DATA=1`). Geometry of issue 12 (`tests/common/lvf_geometry.rs`).
+
+use std::path::PathBuf;
+
+use lumifit::io::camera::parse_camera_file;
+use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
+use lumifit::lvf::{
+    calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
+};
+use lumifit::spectrum::MultiSpectrum;
+mod common;
+use common::tolerances::lvf_camera_mismatch::*;
+
+const WETA_5D2: &str = "rawtoaces-data/Canon_EOS_5D_Mark_II_380_780_5.json";
+const WETA_5D3: &str = "rawtoaces-data/Canon_EOS_5D_Mark_III_380_780_5.json";
+
+fn camera_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/camera")
+}
+
+/// The Academy-JSON camera `name` under ../shared/data/camera, or `None` after a skip message.
+fn academy(name: &str) -> Option<MultiSpectrum> {
+    let p = camera_dir().join(name);
+    match std::fs::read(&p) {
+        Ok(b) => Some(parse_camera_file(&b, name).unwrap()),
+        Err(_) => {
+            assert!(
+                std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+                "LUMIFIT_REQUIRE_DATA=1 but {} is missing",
+                p.display()
+            );
+            eprintln!(
+                "SKIPPED: {} is absent; the camera-mismatch checks did not run",
+                p.display()
+            );
+            None
+        }
+    }
+}
+
+/// Signed λ error at 400 and 700 nm and the background model chosen.
+fn calibrate(
+    lamp: Lamp,
+    render: &MultiSpectrum,
+    given: Option<(&MultiSpectrum, &str)>,
+    continuum: ContinuumShape,
+    seed: u64,
+) -> ([f64; 2], String) {
+    let s = common::lvf_geometry::spec(
+        lamp.clone(),
+        render.clone(),
+        0.01,
+        (VignettingShape::Quadratic, 0.3),
+        Some((continuum, 0.10)),
+        seed,
+    );
+    let (frame, truth) = render_lvf(&s).unwrap();
+    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
+    let opts = FitOptions {
+        camera: given.map(|(c, n)| CameraResponse::from_curves(c, n).unwrap()),
+        ..FitOptions::default()
+    };
+    let cal = calibrate_whole_profile(&profile, &lamp, &opts).unwrap();
+    (
+        [
+            cal.map.eval(truth.px_at_400) - 400.0,
+            cal.map.eval(truth.px_at_700) - 700.0,
+        ],
+        cal.background.unwrap().model,
+    )
+}
+
+#[test]
+fn curves_measured_elsewhere_or_of_another_camera_do_not_pull_the_map() {
+    let (Some(weta), Some(mk3), Some(db)) = (
+        academy(WETA_5D2),
+        academy(WETA_5D3),
+        common::jiang::database("the camera-mismatch checks"),
+    ) else {
+        return;
+    };
+    let jiang = common::jiang::camera(&db, "Canon 5DMarkII");
+    let given = [
+        (&jiang, "Jiang 2013 Canon 5DMarkII"),
+        (&mk3, "Weta Canon 5D Mark III"),
+    ];
+    for (lamp, shape, bound, seed) in [
+        (Lamp::mercury(), ContinuumShape::Flat, HG_TOL_NM, 1),
+        (Lamp::cfl(), ContinuumShape::Cfl, CFL_TOL_NM, 2),
+    ] {
+        for (cam, name) in given {
+            let (e, model) = calibrate(lamp.clone(), &weta, Some((cam, name)), shape, seed);
+            eprintln!(
+                "{} rendered through Weta 5D Mark II, --camera {name}: {:+.3} / {:+.3} nm ({model})",
+                lamp.name, e[0], e[1]
+            );
+            assert!(
+                e[0].abs() <= bound && e[1].abs() <= bound,
+                "{} with {name}: {e:?} ({model})",
+                lamp.name
+            );
+        }
+    }
+}
+
+#[test]
+fn the_matching_curves_over_the_whole_range_give_the_shared_spectrum() {
+    let Some(weta) = academy(WETA_5D2) else {
+        return;
+    };
+    let (e, model) = calibrate(
+        Lamp::cfl(),
+        &weta,
+        Some((&weta, "Weta Canon 5D Mark II")),
+        ContinuumShape::Cfl,
+        2,
+    );
+    eprintln!(
+        "CFL through Weta 5D Mark II, the same curves given: {:+.3} / {:+.3} nm ({model})",
+        e[0], e[1]
+    );
+    assert!(model.starts_with("shared-spectrum"), "{model}");
+    assert!(
+        e[0].abs() <= CFL_TOL_NM && e[1].abs() <= CFL_TOL_NM,
+        "{e:?}"
+    );
+}
+
+/// The CLI chain with an Academy-JSON camera file on both sides: `synth lvf-hg --camera F.json`
+/// then `lvf calibrate --camera F.json`, and a malformed one refused with its line.
+#[test]
+fn the_cli_reads_an_academy_json_camera_and_refuses_a_broken_one() {
+    let path = camera_dir().join(WETA_5D2);
+    if academy(WETA_5D2).is_none() {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/tmp-lvf-camera-json");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cam = path.to_str().unwrap();
+    let (img, truth, out) = (
+        common::p(&dir, "hg.tiff"),
+        common::p(&dir, "t.json"),
+        common::p(&dir, "lvf.json"),
+    );
+    let o = common::lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &img,
+        "--truth",
+        &truth,
+        "--nm-at-start",
+        "372.3",
+        "--nm-per-px",
+        "0.3117",
+        "--fwhm",
+        "25",
+        "--camera",
+        cam,
+        "--noise",
+        "0.01",
+        "--vignetting",
+        "quadratic:0.2",
+        "--continuum",
+        "0.04",
+        "--seed",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let o = common::lumifit(&[
+        "lvf",
+        "calibrate",
+        &img,
+        "--axis",
+        "x",
+        "--camera",
+        cam,
+        "--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let t: serde_json::Value = serde_json::from_slice(&std::fs::read(&truth).unwrap()).unwrap();
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let c: Vec<f64> = j["map"]["coefficients"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let lam = |px: f64| c.iter().rev().fold(0.0, |acc, ci| acc * px + ci);
+    for (key, nm) in [("px_at_400", 400.0), ("px_at_700", 700.0)] {
+        let e = lam(t[key].as_f64().unwrap()) - nm;
+        assert!(e.abs() <= HG_TOL_NM, "{key}: {e}");
+    }
+    // a negative sensitivity in a copy: refused naming the file and the line, nothing written
+    let mut doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    doc["spectral_data"]["data"]["main"]["400"][1] = serde_json::json!(-0.5);
+    let bad = serde_json::to_string_pretty(&doc).unwrap();
+    let bad_path = common::write(&dir, "bad.json", bad.as_bytes());
+    let line = bad.lines().position(|l| l.contains("\"400\"")).unwrap() + 1;
+    let out2 = common::p(&dir, "never.json");
+    let o = common::lumifit(&[
+        "lvf",
+        "calibrate",
+        &img,
+        "--axis",
+        "x",
+        "--camera",
+        bad_path.to_str().unwrap(),
+        "--out",
+        &out2,
+    ]);
+    common::assert_rejected(&o, &["bad.json", &format!("line {line}"), "negative"]);
+    assert!(!std::path::Path::new(&out2).exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
