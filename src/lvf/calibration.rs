@@ -159,7 +159,8 @@ pub struct CandidateReport {
     pub model: String,
     /// BIC = N·ln(SSE/N) + k·ln N.
     pub bic: f64,
-    /// BIC minus the chosen model's.
+    /// BIC minus the chosen model's (negative for BIC's own choice when the focused criterion
+    /// chose a finer knot spacing; see [`BackgroundReport::selection`]).
     pub delta_bic: f64,
     /// RMS of the profile residual (linear units).
     pub profile_rms: f64,
@@ -174,7 +175,10 @@ pub struct CandidateReport {
 pub struct BackgroundReport {
     /// Chosen terms.
     pub model: String,
-    /// `bic` (chosen among candidates) or `requested`.
+    /// `bic` (chosen among candidates), `requested`, or — when the focused information criterion
+    /// replaced BIC's knot spacing by a finer one of the same continuum family — a sentence
+    /// starting `bic chose …` that names BIC's choice and gives both estimated mean squared errors
+    /// of λ (then BIC's choice is among `candidates` with a negative `delta_bic`).
     pub selection: String,
     /// The flat-field photo divided out, if any (`null`: none; the fall-off is modelled).
     pub flat_field: Option<String>,
