@@ -1420,7 +1420,7 @@ pub fn calibrate_whole_profile(
         selection: match &focused {
             None => selection_rule.into(),
             Some(f) => format!(
-                "bic chose {}; the finer {} of the same family has the smaller estimated mean squared error of λ at 400 + 700 nm (focused information criterion: {:.3e} against {:.3e} nm²; it moves λ there by {:+.3} / {:+.3} nm)",
+                "bic chose {}; {} has the smaller estimated mean squared error of λ at 400 + 700 nm (focused information criterion against the model that draws the continuum without bias, the finest of a shared spectrum's spacings or, for a spline in u, the passband continuum: {:.3e} against {:.3e} nm²; it moves λ there by {:+.3} / {:+.3} nm)",
                 f.bic_choice,
                 pr.terms.name(),
                 f.mse[1],
@@ -1813,7 +1813,7 @@ fn lambda_and_variance(pr: &Problem, fit: &Fitted, us: &[f64]) -> Option<Vec<(f6
     )
 }
 
-/// Why the knot spacing BIC chose was replaced by a finer one of the same family.
+/// Why the continuum BIC chose was replaced (see [`focused_refinement`]).
 #[derive(Debug, Clone)]
 struct FocusedChoice {
     bic_choice: String,
@@ -1835,26 +1835,28 @@ struct FocusedChoice {
 ///
 /// (the bias² estimate less the variance of the difference, v_W − v_N for nested models, plus
 /// N's variance). Here μ is λ at the chosen map's 400 and 700 nm positions (MSEs summed) and v the
-/// statistical variance of each fit. Applied only within the family BIC chose (splines in u of
-/// several spacings, or shared spectra of several spacings): there the finest member is the
-/// widest model and the others are close to nested in it. In practice the shared spectrum
-/// through a known camera (`--camera`): the passband continuum has one spacing, and splines in u
-/// are excluded (below). Returns the index in `others` of the finest member when its MSE is the
-/// smaller, with the numbers.
+/// statistical variance of each fit. W is a model that can draw what lies under the lines
+/// without bias: for a shared spectrum through a known camera (`--camera`) the finest spacing of
+/// that family (close to nested); for a spline in u the per-channel passband continuum (not
+/// nested: the bound v_W + v_N on the variance of the difference, below). The passband continuum
+/// itself has one spacing and is not revised. Returns the index in `others` of W when its MSE is
+/// the smaller, with the numbers.
 fn focused_refinement(
     chosen_pr: &Problem,
     chosen_fit: &Fitted,
     others: &[(Problem, Fitted, f64)],
 ) -> Option<(usize, FocusedChoice)> {
     let (fam, k) = continuum_family(&chosen_pr.terms)?;
-    // Not among splines in u: the finest of them is itself biased where a camera edge or a
-    // phosphor band sits under a line (CFL + its continuum, noise-free: continuum9 −0.40 / +0.86,
-    // continuum12 +0.43 / −1.17 nm at 400 / 700 nm), so it is no unbiased reference; tried on the
-    // grid, it took continuum12 for continuum9 on the CFL at 5 % noise: Canon 0.85 → 1.26, SONY
-    // NEX-5N 0.72 → 0.94 nm (docs/performance.md, issue 12, sixteenth session).
-    if fam == 0 {
-        return None;
-    }
+    // A spline in u is compared with the passband continuum, not with a finer spline in u: the
+    // finest spline in u is itself biased where a camera edge or a phosphor band sits under a
+    // line (CFL + its continuum, noise-free: continuum9 −0.40 / +0.86, continuum12 +0.43 / −1.17
+    // nm at 400 / 700 nm), so it is no unbiased reference (tried: it took continuum12 for
+    // continuum9 on the CFL at 5 % noise, Canon 0.85 → 1.26, SONY NEX-5N 0.72 → 0.94 nm), while
+    // the passband continuum — any non-negative spectrum per channel seen through the passband —
+    // is the general model of what lies under the lines. The two are not nested, so the variance
+    // of the difference is bounded by v_W + v_N (the two estimates, from the same data, are
+    // positively correlated), which leans towards BIC's choice.
+    let across = fam == 0;
     let (kw, _) = others
         .iter()
         .enumerate()
@@ -1862,7 +1864,13 @@ fn focused_refinement(
             p.terms.falloff_degree == chosen_pr.terms.falloff_degree
                 && p.n_map == chosen_pr.n_map
                 && p.lines.len() == chosen_pr.lines.len()
-                && continuum_family(&p.terms).is_some_and(|(f, kk)| f == fam && kk > k)
+                && continuum_family(&p.terms).is_some_and(|(f, kk)| {
+                    if across {
+                        f == 1
+                    } else {
+                        f == fam && kk > k
+                    }
+                })
         })
         .max_by_key(|(_, (p, _, _))| continuum_family(&p.terms).map_or(0, |x| x.1))?;
     let (wpr, wfit, _) = &others[kw];
@@ -1887,7 +1895,8 @@ fn focused_refinement(
     let mut shift = [0.0; 2];
     for (i, ((ln, vn), (lw, vw))) in n.iter().zip(&w).enumerate() {
         let d = lw - ln;
-        mse[0] += (d * d - (vw - vn).max(0.0)).max(0.0) + vn;
+        let vd = if across { vw + vn } else { (vw - vn).max(0.0) };
+        mse[0] += (d * d - vd).max(0.0) + vn;
         mse[1] += vw;
         if i < 2 {
             shift[i] = d;

@@ -269,6 +269,10 @@ pub mod lvf_continuum {
     pub const CFL_SHARED_BOUND_NM: f64 = 0.5;
     /// Issue 12's bound for a CFL at 1 % noise, asserted where the focused criterion is tested.
     pub const CFL_ISSUE_BOUND_NM: f64 = 0.3;
+    /// A CFL at 5 % noise without the camera: the issue asks 0.4 nm; the passband continuum the
+    /// focused criterion takes reaches 0.40–0.57 nm on the grid (two seeds × three cameras; the
+    /// spline in u BIC chose 0.72–1.30). NOT met in general; this bound catches regressions.
+    pub const CFL_5PCT_NO_CAMERA_BOUND_NM: f64 = 0.6;
     /// The CFL on the independent images made from the CIE FL10/FL11/FL12 tables
     /// (`fixtures/lvf_reference/cfl_*.png`): the tables are sampled every 5 nm, so a line's place
     /// inside its interval is known only through its neighbours, to about ±0.5 nm; through the
