@@ -1096,9 +1096,10 @@ pub fn calibrate_whole_profile(
             iterations: j.iterations,
         };
     }
-    // Focused choice of the knot spacing within the chosen continuum's family (below).
+    // The continuum checked for λ by the focused criterion ([`focused_refinement`]); not when
+    // unlisted lines were fitted, whose free wavelengths only the chosen fit carries.
     let mut focused: Option<FocusedChoice> = None;
-    if opts.background == BackgroundChoice::Auto {
+    if opts.background == BackgroundChoice::Auto && extra.is_empty() {
         if let Some((k, fc)) = focused_refinement(&chosen_pr, &chosen_fit, &others) {
             let (fpr, ffit, fbic) = others.swap_remove(k);
             let old_pr = std::mem::replace(&mut chosen_pr, fpr);
@@ -1817,9 +1818,10 @@ fn lambda_and_variance(pr: &Problem, fit: &Fitted, us: &[f64]) -> Option<Vec<(f6
 #[derive(Debug, Clone)]
 struct FocusedChoice {
     bic_choice: String,
-    /// Estimated mean squared error of λ summed over 400 and 700 nm (nm²): BIC's choice, the finer.
+    /// Estimated mean squared error of λ summed over 400 and 700 nm (nm²): BIC's choice, then the
+    /// reference model W that replaced it.
     mse: [f64; 2],
-    /// λ(finer) − λ(BIC's choice) at the 400 / 700 nm positions.
+    /// λ(W) − λ(BIC's choice) at the 400 / 700 nm positions.
     shift_nm: [f64; 2],
 }
 
@@ -1854,8 +1856,8 @@ fn focused_refinement(
     // continuum9 on the CFL at 5 % noise, Canon 0.85 → 1.26, SONY NEX-5N 0.72 → 0.94 nm), while
     // the passband continuum — any non-negative spectrum per channel seen through the passband —
     // is the general model of what lies under the lines. The two are not nested, so the variance
-    // of the difference is bounded by v_W + v_N (the two estimates, from the same data, are
-    // positively correlated), which leans towards BIC's choice.
+    // of the difference is taken as v_W + v_N, a bound when the two estimates of the same data
+    // are not negatively correlated; it leans towards BIC's choice.
     let across = fam == 0;
     let (kw, _) = others
         .iter()
