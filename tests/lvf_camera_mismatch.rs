@@ -186,22 +186,10 @@ fn the_cli_reads_an_academy_json_camera_and_refuses_a_broken_one() {
         &out,
     ]);
     assert!(o.status.success(), "{}", common::stderr(&o));
-    let t: serde_json::Value = serde_json::from_slice(&std::fs::read(&truth).unwrap()).unwrap();
-    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
-    let c: Vec<f64> = j["map"]["coefficients"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    let lam = |px: f64| c.iter().rev().fold(0.0, |acc, ci| acc * px + ci);
-    for (key, nm) in [("px_at_400", 400.0), ("px_at_700", 700.0)] {
-        let e = lam(t[key].as_f64().unwrap()) - nm;
-        assert!(e.abs() <= HG_TOL_NM, "{key}: {e}");
-    }
+    let e = common::lvf_map_errors(&common::read_json(&out), &common::read_json(&truth));
+    assert!(e[0].abs() <= HG_TOL_NM && e[1].abs() <= HG_TOL_NM, "{e:?}");
     // a negative sensitivity in a copy: refused naming the file and the line, nothing written
-    let mut doc: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let mut doc = common::read_json(&path);
     doc["spectral_data"]["data"]["main"]["400"][1] = serde_json::json!(-0.5);
     let bad = serde_json::to_string_pretty(&doc).unwrap();
     let bad_path = common::write(&dir, "bad.json", bad.as_bytes());

@@ -113,17 +113,9 @@ fn lamp_and_flat(
         camera,
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let t: serde_json::Value = serde_json::from_slice(&std::fs::read(&truth).unwrap()).unwrap();
-    let c: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
-    let coef: Vec<f64> = c["map"]["coefficients"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    let lam = |px: f64| coef.iter().rev().fold(0.0, |a, k| a * px + k);
-    let e4 = lam(t["px_at_400"].as_f64().unwrap()) - 400.0;
-    let e7 = lam(t["px_at_700"].as_f64().unwrap()) - 700.0;
+    let t = common::read_json(&truth);
+    let c = common::read_json(&out);
+    let [e4, e7] = common::lvf_map_errors(&c, &t);
     let s4 = c["sigma_nm_at_400"].as_f64().unwrap();
     let s7 = c["sigma_nm_at_700"].as_f64().unwrap();
     (e4, e7, s4, s7, c)
@@ -354,15 +346,7 @@ fn without_its_spectrum_a_flat_is_used_across_the_axis_and_says_so() {
         src.starts_with("flat-field ") && src.contains("across-axis only"),
         "{src}"
     );
-    let coef: Vec<f64> = c["map"]["coefficients"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    let lam = |px: f64| coef.iter().rev().fold(0.0, |a, k| a * px + k);
-    let e4 = lam(t["px_at_400"].as_f64().unwrap()) - 400.0;
-    let e7 = lam(t["px_at_700"].as_f64().unwrap()) - 700.0;
+    let [e4, e7] = common::lvf_map_errors(&c, &t);
     println!("quadratic 0.3 (radial), flat without spectrum: error {e4:+.4} / {e7:+.4} nm");
     // a radial fall-off is what the across-axis estimate sees
     assert!(

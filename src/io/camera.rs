@@ -176,7 +176,8 @@ pub fn parse_camera_json(bytes: &[u8], source: &str) -> Result<MultiSpectrum> {
             ))
         }
     };
-    let mut rows: Vec<(f64, [f64; 3])> = Vec::with_capacity(doc.spectral_data.data.main.len());
+    let mut rows: Vec<(f64, [f64; 3], &str)> =
+        Vec::with_capacity(doc.spectral_data.data.main.len());
     for (key, values) in &doc.spectral_data.data.main {
         let line = json_key_line(text, key);
         let nm = key
@@ -213,16 +214,16 @@ pub fn parse_camera_json(bytes: &[u8], source: &str) -> Result<MultiSpectrum> {
                 ),
             ));
         }
-        rows.push((nm, v));
+        rows.push((nm, v, key));
     }
     rows.sort_by(|a, b| a.0.total_cmp(&b.0));
     if let Some(w) = rows.windows(2).find(|w| w[0].0 == w[1].0) {
         return Err(Error::parse(
             source,
-            0,
+            json_key_line(text, w[1].2),
             format!(
-                "wavelength {} nm is given twice in spectral_data.data.main; expected each once",
-                w[0].0
+                "wavelength {} nm is given twice in spectral_data.data.main (keys \"{}\" and \"{}\"); expected each once",
+                w[0].0, w[0].2, w[1].2
             ),
         ));
     }
@@ -444,7 +445,7 @@ mod tests {
             ),
             (
                 ACADEMY.replace("\"405.5\"", "\"400.0\""),
-                "cam.json",
+                "line 9",
                 "given twice",
             ),
             (

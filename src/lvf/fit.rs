@@ -1221,7 +1221,7 @@ pub fn calibrate_whole_profile(
         .filter_map(|&nm| provisional.inverse(nm))
         .map(|px| {
             let u = (px - m) / h;
-            DVector::from_fn(p, |j, _| if j < deg { u.powi(j as i32) } else { 0.0 })
+            lambda_gradient(p, deg, u)
         })
         .collect();
     let sandwich =
@@ -1772,15 +1772,30 @@ fn fit_candidates<'a>(
     }
 }
 
-/// The continuum family of a background (spline in u, passband continuum, shared spectrum) and
-/// its number of intervals; None without a continuum.
-fn continuum_family(t: &BackgroundTerms) -> Option<(u8, usize)> {
+/// ∇_θ λ(u) for a map of `n_map` coefficients in u (θ's first entries) and `p` parameters.
+fn lambda_gradient(p: usize, n_map: usize, u: f64) -> DVector<f64> {
+    DVector::from_fn(p, |j, _| if j < n_map { u.powi(j as i32) } else { 0.0 })
+}
+
+/// The kinds of continuum a background can have (see [`BackgroundTerms`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ContinuumFamily {
+    /// Cubic B-spline in u per channel.
+    SplineInU,
+    /// Per-channel spectrum seen through the passband.
+    Passband,
+    /// One spectrum shared by the channels through a known camera.
+    Shared,
+}
+
+/// The continuum family of a background and its number of intervals; None without a continuum.
+fn continuum_family(t: &BackgroundTerms) -> Option<(ContinuumFamily, usize)> {
     if t.continuum_intervals > 0 {
-        Some((0, t.continuum_intervals))
+        Some((ContinuumFamily::SplineInU, t.continuum_intervals))
     } else if t.passband_intervals > 0 {
-        Some((1, t.passband_intervals))
+        Some((ContinuumFamily::Passband, t.passband_intervals))
     } else if t.shared_intervals > 0 {
-        Some((2, t.shared_intervals))
+        Some((ContinuumFamily::Shared, t.shared_intervals))
     } else {
         None
     }
@@ -1792,7 +1807,7 @@ fn lambda_and_variance(pr: &Problem, fit: &Fitted, us: &[f64]) -> Option<Vec<(f6
     let p = fit.jac.ncols();
     let targets: Vec<DVector<f64>> = us
         .iter()
-        .map(|&u| DVector::from_fn(p, |j, _| if j < pr.n_map { u.powi(j as i32) } else { 0.0 }))
+        .map(|&u| lambda_gradient(p, pr.n_map, u))
         .collect();
     let s = crate::lvf::sigma::hac_sandwich(
         &fit.jac,
@@ -1848,6 +1863,9 @@ fn focused_refinement(
     chosen_fit: &Fitted,
     others: &[(Problem, Fitted, f64)],
 ) -> Option<(usize, FocusedChoice)> {
+    if chosen_pr.n_map != 2 {
+        return None;
+    }
     let (fam, k) = continuum_family(&chosen_pr.terms)?;
     // A spline in u is compared with the passband continuum, not with a finer spline in u: the
     // finest spline in u is itself biased where a camera edge or a phosphor band sits under a
@@ -1858,7 +1876,7 @@ fn focused_refinement(
     // is the general model of what lies under the lines. The two are not nested, so the variance
     // of the difference is taken as v_W + v_N, a bound when the two estimates of the same data
     // are not negatively correlated; it leans towards BIC's choice.
-    let across = fam == 0;
+    let across = fam == ContinuumFamily::SplineInU;
     let (kw, _) = others
         .iter()
         .enumerate()
@@ -1868,7 +1886,7 @@ fn focused_refinement(
                 && p.lines.len() == chosen_pr.lines.len()
                 && continuum_family(&p.terms).is_some_and(|(f, kk)| {
                     if across {
-                        f == 1
+                        f == ContinuumFamily::Passband
                     } else {
                         f == fam && kk > k
                     }
@@ -1876,9 +1894,6 @@ fn focused_refinement(
         })
         .max_by_key(|(_, (p, _, _))| continuum_family(&p.terms).map_or(0, |x| x.1))?;
     let (wpr, wfit, _) = &others[kw];
-    if chosen_pr.n_map != 2 {
-        return None;
-    }
     let (a0, a1) = (chosen_fit.theta[0], chosen_fit.theta[1]);
     if a1.abs() < 1e-12 {
         return None;

@@ -54,3 +54,24 @@ pub fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
 pub fn p(dir: &Path, name: &str) -> String {
     dir.join(name).to_string_lossy().to_string()
 }
+
+/// A JSON file read and parsed (the test fails naming it when it cannot be).
+pub fn read_json(path: impl AsRef<Path>) -> serde_json::Value {
+    let p = path.as_ref();
+    let bytes = std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    serde_json::from_slice(&bytes).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// The signed error of an lvf.json's map at the true 400 and 700 nm positions of a `synth
+/// lvf-hg --truth` file: λ(px_at_400) − 400 and λ(px_at_700) − 700 (λ(px) = Σ cᵢ·pxⁱ).
+pub fn lvf_map_errors(lvf: &serde_json::Value, truth: &serde_json::Value) -> [f64; 2] {
+    let c: Vec<f64> = lvf["map"]["coefficients"]
+        .as_array()
+        .expect("lvf.json map.coefficients")
+        .iter()
+        .map(|v| v.as_f64().expect("a number"))
+        .collect();
+    let lam = |px: f64| c.iter().rev().fold(0.0, |acc, ci| acc * px + ci);
+    [("px_at_400", 400.0), ("px_at_700", 700.0)]
+        .map(|(key, nm)| lam(truth[key].as_f64().expect("truth px_at_400/700")) - nm)
+}
