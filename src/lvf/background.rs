@@ -57,6 +57,9 @@ pub struct BackgroundTerms {
     /// the fitted passband (0: none; see [`crate::lvf::passband_continuum`]). Exclusive with
     /// the other continua.
     pub passband_intervals: usize,
+    /// Prior roughness of a shared spectrum in thousandths (`SHARED_SMOOTHNESS`: its second
+    /// differences ≈ this × its RMS); 0: no roughness penalty.
+    pub shared_smoothness_milli: u32,
 }
 
 impl BackgroundTerms {
@@ -66,6 +69,7 @@ impl BackgroundTerms {
         falloff_degree: 0,
         shared_intervals: 0,
         passband_intervals: 0,
+        shared_smoothness_milli: 0,
     };
 
     /// Number of per-channel continuum basis functions (spline in u or spectrum seen through
@@ -84,7 +88,7 @@ impl BackgroundTerms {
     }
 
     /// Short name for reports: `linear`, `falloff2`, `continuum6`, `continuum6+falloff2`,
-    /// `shared-spectrum12`, `passband-continuum36`.
+    /// `shared-spectrum12`, `shared-spectrum31-s0.03` (penalised), `passband-continuum36`.
     pub fn name(&self) -> String {
         if self.passband_intervals > 0 {
             return match self.falloff_degree {
@@ -93,9 +97,16 @@ impl BackgroundTerms {
             };
         }
         if self.shared_intervals > 0 {
+            let smooth = match self.shared_smoothness_milli {
+                0 => String::new(),
+                m => format!("-s{}", f64::from(m) / 1000.0),
+            };
             return match self.falloff_degree {
-                0 => format!("shared-spectrum{}", self.shared_intervals),
-                f => format!("shared-spectrum{}+falloff{f}", self.shared_intervals),
+                0 => format!("shared-spectrum{}{smooth}", self.shared_intervals),
+                f => format!(
+                    "shared-spectrum{}{smooth}+falloff{f}",
+                    self.shared_intervals
+                ),
             };
         }
         match (self.continuum_intervals, self.falloff_degree) {

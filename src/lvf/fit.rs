@@ -33,7 +33,9 @@ use crate::lvf::calibration::{
 use crate::lvf::lamp::Lamp;
 use crate::lvf::passband_continuum::{PassbandBasis, PASSBAND_KNOT_FWHM, PASSBAND_REACH_FWHM};
 use crate::lvf::profile::Profile;
-use crate::lvf::shared_continuum::{solve_joint, CameraResponse, SharedBasis, SHARED_KNOT_FWHM};
+use crate::lvf::shared_continuum::{
+    solve_joint, CameraResponse, SharedBasis, SHARED_KNOT_FWHM, SHARED_SMOOTHNESS,
+};
 use crate::math::minimize::brent_min;
 
 /// Passband shape g(Δλ).
@@ -172,6 +174,14 @@ pub struct FitOptions {
     /// Estimate a radial fall-off from the strips across the axis and divide it out
     /// ([`crate::lvf::background::estimate_radial_falloff`]).
     pub radial_falloff: bool,
+    /// Weight every profile sample by its noise, estimated from the profile
+    /// ([`crate::lvf::noise`]): the bright line blobs carry shot noise, the dim flanks less.
+    /// `None` (the default): weighted when `camera` is given, unweighted otherwise — weighting
+    /// gives the dim flanks their due, which helps a continuum model that can follow the
+    /// continuum (the penalised shared spectrum) and hurts the biased ones left without the
+    /// camera (CFL at 5 % noise: 0.57 → 0.89 nm; docs/performance.md, issue 12, seventeenth
+    /// session).
+    pub noise_weights: Option<bool>,
     /// Knot spacings of the continuum candidates (× FWHM, coarsest first; the first is also
     /// the fixed choice). Default
     /// [`CONTINUUM_KNOT_FWHM`].
@@ -183,6 +193,12 @@ pub struct FitOptions {
     /// The camera's sensitivities, when known: adds continuum candidates whose spectrum is
     /// shared by the three channels ([`crate::lvf::shared_continuum`]).
     pub camera: Option<CameraResponse>,
+    /// Knot spacings (× FWHM) of the shared continuum spectrum's candidates when `camera` is
+    /// given. Default [`SHARED_KNOT_FWHM`].
+    pub shared_knots_fwhm: Vec<f64>,
+    /// Prior roughness values of the shared spectrum's candidates (see [`SHARED_SMOOTHNESS`],
+    /// the default); 0: no roughness penalty (the knot spacing alone limits it).
+    pub shared_smoothness: Vec<f64>,
     /// A known fall-off V at each profile position (e.g. from a flat-field photo,
     /// [`crate::lvf::flat`]) multiplying lines and continuum; replaces the radial estimate.
     /// Ignored unless it has one value per profile position.
@@ -199,9 +215,12 @@ impl Default for FitOptions {
             n_bands: 31,
             background: BackgroundChoice::Auto,
             radial_falloff: true,
+            noise_weights: None,
             continuum_knots_fwhm: CONTINUUM_KNOT_FWHM.to_vec(),
             passband_knots_fwhm: PASSBAND_KNOT_FWHM.to_vec(),
             camera: None,
+            shared_knots_fwhm: SHARED_KNOT_FWHM.to_vec(),
+            shared_smoothness: SHARED_SMOOTHNESS.to_vec(),
             fixed_falloff: None,
         }
     }
@@ -308,14 +327,23 @@ pub(crate) struct Problem<'a> {
     /// The passband continuum's basis when `terms.passband_intervals > 0`
     /// ([`crate::lvf::passband_continuum`]).
     passband_basis: Option<PassbandBasis>,
+    /// Per channel and sample, the weight √(mean variance / variance) of weighted least squares
+    /// ([`crate::lvf::noise`]); empty: unweighted.
+    w: [Vec<f64>; 3],
+    /// s²/RMS² of a shared continuum spectrum: its roughness penalty is this over the
+    /// smoothness squared ([`SharedBasis::with_penalty`], [`SHARED_SMOOTHNESS`]).
+    shared_penalty_unit: f64,
 }
 
-/// Evaluation of θ: residuals (channel-major), linear coefficients per channel, SSE.
+/// Evaluation of θ: residuals (channel-major, times the weights when the problem is weighted),
+/// linear coefficients per channel, SSE of the weighted residuals.
 pub(crate) struct Eval {
     pub(crate) residual: Vec<f64>,
     pub(crate) alpha: [DVector<f64>; 3],
     pub(crate) sse: f64,
     pub(crate) n_active: usize,
+    /// Effective number of linear parameters (`n_active`, less what a roughness penalty takes).
+    pub(crate) dof_linear: f64,
     /// The shared continuum: β and per channel its curve (fall-off included).
     shared: Option<(Vec<f64>, [Vec<f64>; 3])>,
 }
@@ -353,7 +381,53 @@ impl<'a> Problem<'a> {
             shared: None,
             passband_range: None,
             passband_basis: None,
+            w: std::array::from_fn(|_| Vec::new()),
+            shared_penalty_unit: 0.0,
         }
+    }
+
+    /// Variance of a (weighted) residual where the model is right: the mean variance of the
+    /// noise model when weighted, else the data's second-difference noise estimate.
+    pub(crate) fn noise_variance(&self, model: Option<&crate::lvf::noise::NoiseModel>) -> f64 {
+        match model {
+            Some(m) if !self.w.iter().all(Vec::is_empty) => m.mean_variance,
+            _ => {
+                (0..3)
+                    .map(|c| profile_noise(self.y[c]).powi(2))
+                    .sum::<f64>()
+                    / 3.0
+            }
+        }
+    }
+
+    /// Weights every sample's residual (`w`: per channel, one per sample; from
+    /// [`crate::lvf::noise::weights`]). Weights of the wrong length are ignored.
+    pub(crate) fn set_weights(&mut self, w: [Vec<f64>; 3]) {
+        if w.iter().all(|c| c.len() == self.u.len()) {
+            self.w = w;
+        }
+    }
+
+    /// The weight of sample `i` of channel `c` (1 when unweighted).
+    fn weight(&self, c: usize, i: usize) -> f64 {
+        self.w[c].get(i).copied().unwrap_or(1.0)
+    }
+
+    /// Channel `c`'s profile times the weights: the data on the scale of the residuals.
+    pub(crate) fn whitened(&self, c: usize) -> Vec<f64> {
+        (0..self.u.len())
+            .map(|i| self.weight(c, i) * self.y[c][i])
+            .collect()
+    }
+
+    /// A channel-major residual of this problem back in image units (divided by the weights).
+    pub(crate) fn unweighted(&self, residual: &[f64]) -> Vec<f64> {
+        let n = self.u.len();
+        residual
+            .iter()
+            .enumerate()
+            .map(|(k, r)| r / self.weight(k / n, k % n))
+            .collect()
     }
 
     fn spline_rows(u: &[f64], terms: BackgroundTerms) -> Vec<f64> {
@@ -382,7 +456,13 @@ impl<'a> Problem<'a> {
             vfix: self.vfix.clone(),
             camera: self.camera,
             shared: match (self.camera, terms.shared_intervals) {
-                (Some((cam, lo, hi)), k) if k > 0 => Some(SharedBasis::new(cam, lo, hi, k)),
+                (Some((cam, lo, hi)), k) if k > 0 => {
+                    let penalty = match terms.shared_smoothness_milli {
+                        0 => 0.0,
+                        m => self.shared_penalty_unit / (f64::from(m) / 1000.0).powi(2),
+                    };
+                    Some(SharedBasis::new(cam, lo, hi, k).with_penalty(penalty))
+                }
                 _ => None,
             },
             passband_range: self.passband_range,
@@ -390,6 +470,8 @@ impl<'a> Problem<'a> {
                 (Some((lo, hi)), k) if k > 0 => Some(PassbandBasis::new(lo, hi, k)),
                 _ => None,
             },
+            w: self.w.clone(),
+            shared_penalty_unit: self.shared_penalty_unit,
         }
     }
 
@@ -509,17 +591,34 @@ impl<'a> Problem<'a> {
         if let Some(sb) = &self.shared {
             return self.eval_shared(theta, &phi, sb);
         }
-        let g = phi.transpose() * &phi;
         let n = self.u.len();
+        let unweighted = self.w.iter().all(Vec::is_empty);
+        let g = unweighted.then(|| phi.transpose() * &phi);
         let mut residual = Vec::with_capacity(3 * n);
         let mut sse = 0.0;
         let mut n_active = 0;
         let alpha: [DVector<f64>; 3] = std::array::from_fn(|c| {
-            let y = DVector::from_column_slice(self.y[c]);
-            let h = phi.transpose() * &y;
-            let a = nnls_gram(&g, &h, N_BG);
+            // weighted: rows of Φ and y times the channel's weights, a Gram per channel
+            let (phi_c, y) = if unweighted {
+                (
+                    std::borrow::Cow::Borrowed(&phi),
+                    DVector::from_column_slice(self.y[c]),
+                )
+            } else {
+                let mut pw = phi.clone();
+                for (i, mut row) in pw.row_iter_mut().enumerate() {
+                    row *= self.weight(c, i);
+                }
+                let y = DVector::from_fn(n, |i, _| self.weight(c, i) * self.y[c][i]);
+                (std::borrow::Cow::Owned(pw), y)
+            };
+            let h = phi_c.transpose() * &y;
+            let a = match &g {
+                Some(g) => nnls_gram(g, &h, N_BG),
+                None => nnls_gram(&(phi_c.transpose() * phi_c.as_ref()), &h, N_BG),
+            };
             n_active += a.iter().filter(|v| **v != 0.0).count();
-            let r = y - &phi * &a;
+            let r = y - phi_c.as_ref() * &a;
             sse += r.norm_squared();
             residual.extend(r.iter());
             a
@@ -529,6 +628,7 @@ impl<'a> Problem<'a> {
             alpha,
             sse,
             n_active,
+            dof_linear: n_active as f64,
             shared: None,
         }
     }
@@ -541,14 +641,15 @@ impl<'a> Problem<'a> {
             .map(|i| falloff(v, self.u[i]) * self.vfix.get(i).copied().unwrap_or(1.0))
             .collect();
         let cols = sb.columns(&lams, &scale, self.fwhm(theta), self.passband);
-        let (alpha, beta, curve) = solve_joint(phi, self.y, &cols, sb.n(), N_BG);
+        let (alpha, beta, curve, dof_linear) =
+            solve_joint(phi, self.y, &cols, sb.n(), N_BG, &self.w, sb.penalty);
         let n = self.u.len();
         let mut residual = Vec::with_capacity(3 * n);
         let mut sse = 0.0;
         for c in 0..3 {
             let fit = phi * &alpha[c];
             for i in 0..n {
-                let r = self.y[c][i] - fit[i] - curve[c][i];
+                let r = self.weight(c, i) * (self.y[c][i] - fit[i] - curve[c][i]);
                 sse += r * r;
                 residual.push(r);
             }
@@ -563,6 +664,7 @@ impl<'a> Problem<'a> {
             alpha,
             sse,
             n_active,
+            dof_linear,
             shared: Some((beta, curve)),
         }
     }
@@ -630,7 +732,7 @@ impl<'a> Problem<'a> {
     /// BIC = N·ln(SSE/N) + k·ln N of a fit of this problem.
     pub(crate) fn bic(&self, fit: &Fitted) -> f64 {
         let n = (3 * self.u.len()) as f64;
-        let k = (self.n_theta() + fit.eval.n_active) as f64;
+        let k = self.n_theta() as f64 + fit.eval.dof_linear;
         n * (fit.eval.sse.max(1e-300) / n).ln() + k * n.ln()
     }
 }
@@ -807,7 +909,8 @@ fn group_shift(
         .collect();
     let s2 = ((0..3)
         .map(|c| {
-            let v: Vec<f64> = window.iter().map(|&i| pr.y[c][i]).collect();
+            let wy = pr.whitened(c);
+            let v: Vec<f64> = window.iter().map(|&i| wy[i]).collect();
             profile_noise(&v).powi(2)
         })
         .sum::<f64>()
@@ -946,6 +1049,23 @@ pub fn calibrate_whole_profile(
         BackgroundTerms::LINEAR,
         vfix,
     );
+    let noise_model = opts
+        .noise_weights
+        .unwrap_or(opts.camera.is_some())
+        .then(|| {
+            crate::lvf::noise::estimate([
+                &profile.values[0],
+                &profile.values[1],
+                &profile.values[2],
+            ])
+        })
+        .flatten();
+    if let Some(m) = &noise_model {
+        full.set_weights(crate::lvf::noise::weights(
+            m,
+            [&profile.values[0], &profile.values[1], &profile.values[2]],
+        ));
+    }
     let mut plain: Vec<Fitted> = starts
         .par_iter()
         .map(|&(a0, a1)| full.levenberg_marquardt(&[a0, sign * a1, fwhm0]))
@@ -1010,13 +1130,35 @@ pub fn calibrate_whole_profile(
         let reach = 1.5 * fwhm_plain;
         if let Some((lo, hi)) = SharedBasis::range(cam, l0.min(l1) - reach, l0.max(l1) + reach) {
             full.camera = Some((cam, lo, hi));
-            for knot in SHARED_KNOT_FWHM {
-                let t = BackgroundTerms {
-                    shared_intervals: SharedBasis::intervals_for(lo, hi, knot * fwhm_plain),
+            // the roughness penalty's scale: the RMS from an unpenalised pilot on knots 1.5 FWHM apart at the
+            // linear-offset fit's map (one linear solve), s² from the noise
+            let pilot = full.with(
+                full.n_map,
+                BackgroundTerms {
+                    shared_intervals: SharedBasis::intervals_for(lo, hi, 1.5 * fwhm_plain),
                     ..BackgroundTerms::LINEAR
-                };
-                if !auto.contains(&t) {
-                    auto.push(t);
+                },
+            );
+            let pe = pilot.eval(&plain_best.theta);
+            let rms = match (&pe.shared, &pilot.shared) {
+                (Some((beta, _)), Some(sb)) => sb.spectrum_rms(beta),
+                _ => 0.0,
+            };
+            full.shared_penalty_unit = if rms > 0.0 {
+                full.noise_variance(noise_model.as_ref()) / (rms * rms)
+            } else {
+                0.0
+            };
+            for &knot in &opts.shared_knots_fwhm {
+                for &smooth in &opts.shared_smoothness {
+                    let t = BackgroundTerms {
+                        shared_intervals: SharedBasis::intervals_for(lo, hi, knot * fwhm_plain),
+                        shared_smoothness_milli: (1000.0 * smooth).round().max(0.0) as u32,
+                        ..BackgroundTerms::LINEAR
+                    };
+                    if !auto.contains(&t) {
+                        auto.push(t);
+                    }
                 }
             }
         }
@@ -1351,12 +1493,13 @@ pub fn calibrate_whole_profile(
             })
             .collect()
     });
+    let residual_image = pr.unweighted(&eval.residual);
     let curves = ProfileCurves {
         px: profile.px.clone(),
         data: profile.values.clone(),
         model: std::array::from_fn(|c| {
             (0..n)
-                .map(|i| profile.values[c][i] - eval.residual[c * n + i])
+                .map(|i| profile.values[c][i] - residual_image[c * n + i])
                 .collect()
         }),
         background: background_curve,
@@ -1501,6 +1644,20 @@ pub fn calibrate_whole_profile(
             "active_linear_parameters": eval.n_active,
             "rms_residual_nm_unweighted": rms_unweighted,
             "residual_correlation_length": tau,
+            "noise_model": match &noise_model {
+                Some(m) => serde_json::json!({
+                    "weighted": true,
+                    "variance": "read_variance + shot_gain · level (from the profile's fourth differences)",
+                    "read_variance": m.read_variance,
+                    "shot_gain": m.shot_gain,
+                    "peak_over_dark": m.peak_over_dark,
+                    "note": "residuals, SSE, BIC and profile_rms are of the weighted residual (weights √(mean variance / variance), mean 1 in variance)",
+                }),
+                None => serde_json::json!({
+                    "weighted": false,
+                    "note": if opts.noise_weights.unwrap_or(opts.camera.is_some()) { "no noise seen in the profile (noise-free or too short): unweighted" } else if opts.noise_weights.is_none() { "unweighted without --camera (--weights auto)" } else { "--weights off" },
+                }),
+            },
             "statistical_sigma": {
                 "method": if sandwich.is_some() { "hac-sandwich" } else { "homoscedastic × correlation length (sandwich singular)" },
                 "hac_bandwidth_lags": sandwich.as_ref().map(|s| s.bandwidth),
@@ -1795,7 +1952,15 @@ fn continuum_family(t: &BackgroundTerms) -> Option<(ContinuumFamily, usize)> {
     } else if t.passband_intervals > 0 {
         Some((ContinuumFamily::Passband, t.passband_intervals))
     } else if t.shared_intervals > 0 {
-        Some((ContinuumFamily::Shared, t.shared_intervals))
+        // flexibility: intervals first, then a weaker penalty (no penalty the most flexible)
+        let smooth = match t.shared_smoothness_milli {
+            0 => 999_999,
+            m => m as usize,
+        };
+        Some((
+            ContinuumFamily::Shared,
+            t.shared_intervals * 1_000_000 + smooth,
+        ))
     } else {
         None
     }
@@ -2079,7 +2244,10 @@ fn assess(
         .flat_map(|c| pr.y[c].iter().copied())
         .fold(f64::MIN, f64::max)
         .max(1e-300);
-    let noise: Vec<f64> = (0..3).map(|c| profile_noise(pr.y[c])).collect();
+    // the residual is weighted: the noise it is compared with is the whitened data's
+    let noise: Vec<f64> = (0..3).map(|c| profile_noise(&pr.whitened(c))).collect();
+    // amplitudes and their columns are in image units: so is the noise they are judged by
+    let noise_image: Vec<f64> = (0..3).map(|c| profile_noise(pr.y[c])).collect();
     let noise_rms = (noise.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
     let resid_rms = (eval.sse / (3 * n) as f64).sqrt();
     let relative = resid_rms / peak;
@@ -2139,7 +2307,7 @@ fn assess(
             let norm = column_norm(l.nm);
             (0..3).any(|c| {
                 let a = l.amplitude[c];
-                a > ABSENT_RELATIVE * brightest[c] && a * norm >= ABSENT_SIGMA * noise[c]
+                a > ABSENT_RELATIVE * brightest[c] && a * norm >= ABSENT_SIGMA * noise_image[c]
             })
         })
         .collect();
@@ -2166,14 +2334,15 @@ fn assess(
     let scale: Vec<f64> = (0..n)
         .map(|j| falloff(v, pr.u[j]) * pr.vfix.get(j).copied().unwrap_or(1.0))
         .collect();
-    // (relative amplitude, significance) per sample
+    // (relative amplitude, significance) per sample, in image units (a blob's size relative to
+    // the peak does not depend on the weights)
     let score = crate::lvf::extra_lines::matched_filter(
         &lams,
         &scale,
-        &eval.residual,
+        &pr.unweighted(&eval.residual),
         &|d| pr.passband.eval(d, fwhm),
         2.0 * fwhm,
-        [noise[0], noise[1], noise[2]],
+        [noise_image[0], noise_image[1], noise_image[2]],
         peak,
     );
     let mut found: Vec<UnexplainedLine> = Vec::new();

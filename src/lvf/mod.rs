@@ -33,6 +33,7 @@ pub mod flat_synth;
 pub mod geometry;
 pub mod lamp;
 pub mod misfit;
+pub mod noise;
 pub mod passband_continuum;
 pub mod peaks;
 pub mod profile;

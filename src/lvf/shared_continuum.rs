@@ -26,10 +26,25 @@ use crate::lvf::background::cubic_bspline_row;
 use crate::lvf::fit::Passband;
 use crate::spectrum::MultiSpectrum;
 
-/// Knot spacings of the shared spectrum tried, in units of the passband FWHM (wavelength); BIC
-/// chooses. 0.75 × FWHM follows the narrow phosphor bands of a CFL (docs/performance.md, issue 12,
-/// fourteenth session); a clean Hg lamp does not pick it.
-pub const SHARED_KNOT_FWHM: [f64; 3] = [1.5, 1.0, 0.75];
+/// Knot spacings of the shared spectrum tried, in units of the passband FWHM (wavelength). One
+/// fine spacing, smoothed by a roughness penalty ([`SHARED_SMOOTHNESS`]) instead of chosen by
+/// knot count: a spacing coarse enough to be stable bends a CFL's phosphor bands and moves the
+/// map (0.75 × FWHM: −0.07 nm at 700 nm without noise), one fine enough to follow them lets noise
+/// trade the continuum against the lines (0.5 × FWHM: ±0.45 nm at 1 % noise) — docs/performance.md,
+/// issue 12, seventeenth session.
+pub const SHARED_KNOT_FWHM: [f64; 1] = [0.35];
+
+/// Prior roughness of the shared spectrum: its second differences at the knots are taken as
+/// normal with standard deviation `smoothness` × the spectrum's RMS (from an unpenalised pilot on
+/// knots 1.5 FWHM apart). With the residual variance s² of the weighted profile, the linear solve
+/// adds (s²/τ²)·‖Dβ‖² to the SSE (τ = smoothness × RMS): the penalty grows with the noise. Each
+/// value is a candidate; BIC (counting the effective parameters) and then the focused criterion
+/// (against the roughest, the least biased) choose. 0.03 suits a CFL's phosphor bands through the
+/// Jiang curves at 1 % and 5 % noise; 0.01 a flat continuum, and the CFL through Weta's curves to
+/// 780 nm, where 0.03 leaves the map 0.45 nm off at 700 nm; 0.1 was tried as a third and taken
+/// by BIC where the given curves are not the camera's (0.36 nm off) — docs/performance.md,
+/// issue 12, seventeenth session.
+pub const SHARED_SMOOTHNESS: [f64; 2] = [0.01, 0.03];
 
 /// Fewest and most intervals of the shared spectrum's spline.
 pub const SHARED_INTERVALS: (usize, usize) = (3, 40);
@@ -103,6 +118,8 @@ pub(crate) struct SharedBasis {
     first_k: Vec<usize>,
     /// Q_c·B_{first_k + j} at each grid point: `[c][j]`.
     w: Vec<[[f64; 4]; 3]>,
+    /// Weight λ of the roughness penalty λ‖Dβ‖² (D: second differences); 0: none.
+    pub penalty: f64,
 }
 
 impl SharedBasis {
@@ -149,7 +166,30 @@ impl SharedBasis {
             grid,
             first_k,
             w,
+            penalty: 0.0,
         }
+    }
+
+    /// The same basis with the roughness penalty λ‖Dβ‖² (see [`SHARED_SMOOTHNESS`]).
+    pub fn with_penalty(mut self, penalty: f64) -> Self {
+        self.penalty = if penalty.is_finite() {
+            penalty.max(0.0)
+        } else {
+            0.0
+        };
+        self
+    }
+
+    /// RMS of the spectrum Σ β_k B_k over its range (1 nm grid).
+    pub fn spectrum_rms(&self, beta: &[f64]) -> f64 {
+        let n = self.grid.len().max(1) as f64;
+        (self
+            .grid
+            .iter()
+            .map(|&nm| self.spectrum(beta, nm).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt()
     }
 
     /// Number of coefficients β.
@@ -231,17 +271,25 @@ impl SharedBasis {
     }
 }
 
+/// What [`solve_joint`] returns: per channel the coefficients of `phi`, the shared β, per
+/// channel the continuum curve, and the effective number of linear parameters.
+pub(crate) type JointSolution = ([nalgebra::DVector<f64>; 3], Vec<f64>, [Vec<f64>; 3], f64);
+
 /// The joint linear solve of the three channels with a shared continuum: per channel the
 /// columns of `phi` (the first `n_free` free in sign, the rest ≥ 0), shared the K columns
 /// `cols` (`[c][i][k]`, ≥ 0). Returns per channel the coefficients of `phi`, the shared β, and
-/// per channel the continuum curve Σ_k β_k Φ_{k,c}.
+/// per channel the continuum curve Σ_k β_k Φ_{k,c}, and the effective number of linear
+/// parameters. With `weights` (per channel and sample, or empty) every row of the least-squares
+/// problem is multiplied by its weight; `penalty` λ adds λ‖Dβ‖² (second differences of β).
 pub(crate) fn solve_joint(
     phi: &nalgebra::DMatrix<f64>,
     y: [&[f64]; 3],
     cols: &[f64],
     nk: usize,
     n_free: usize,
-) -> ([nalgebra::DVector<f64>; 3], Vec<f64>, [Vec<f64>; 3]) {
+    weights: &[Vec<f64>; 3],
+    penalty: f64,
+) -> JointSolution {
     use nalgebra::{DMatrix, DVector};
     let (n, m) = phi.shape();
     // unknowns: the free columns of each channel first, then the constrained ones, then β
@@ -255,12 +303,23 @@ pub(crate) fn solve_joint(
         }
     };
     let beta0 = 3 * m;
-    let ptp = phi.transpose() * phi;
+    let unweighted = weights.iter().all(Vec::is_empty);
+    let ptp_plain = unweighted.then(|| phi.transpose() * phi);
     let mut g = DMatrix::zeros(total, total);
     let mut h = DVector::zeros(total);
     for c in 0..3 {
-        let s = DMatrix::from_fn(n, nk, |i, k| cols[(c * n + i) * nk + k]);
-        let yc = DVector::from_column_slice(y[c]);
+        let w = |i: usize| weights[c].get(i).copied().unwrap_or(1.0);
+        let phi_w;
+        let (phi, ptp) = match &ptp_plain {
+            Some(p) => (phi, std::borrow::Cow::Borrowed(p)),
+            None => {
+                phi_w = DMatrix::from_fn(n, m, |i, j| w(i) * phi[(i, j)]);
+                let p = phi_w.transpose() * &phi_w;
+                (&phi_w, std::borrow::Cow::Owned(p))
+            }
+        };
+        let s = DMatrix::from_fn(n, nk, |i, k| w(i) * cols[(c * n + i) * nk + k]);
+        let yc = DVector::from_fn(n, |i, _| w(i) * y[c][i]);
         let pts = phi.transpose() * &s;
         let sts = s.transpose() * &s;
         let pty = phi.transpose() * &yc;
@@ -282,7 +341,37 @@ pub(crate) fn solve_joint(
             }
         }
     }
+    // the data's Gram alone, for the effective number of parameters
+    let g_data = (penalty > 0.0).then(|| g.clone());
+    if penalty > 0.0 {
+        const D: [f64; 3] = [1.0, -2.0, 1.0];
+        for r in 0..nk.saturating_sub(2) {
+            for (a, da) in D.iter().enumerate() {
+                for (b, db) in D.iter().enumerate() {
+                    g[(beta0 + r + a, beta0 + r + b)] += penalty * da * db;
+                }
+            }
+        }
+    }
     let x = crate::lvf::fit::nnls_gram(&g, &h, 3 * n_free);
+    // effective number of linear parameters: tr((G + λP)⁻¹ G) over the active set (its count
+    // when there is no penalty)
+    let active: Vec<usize> = (0..total)
+        .filter(|&i| x[i] != 0.0 || (i < 3 * n_free && g[(i, i)] > 0.0))
+        .collect();
+    let dof = match &g_data {
+        None => x.iter().filter(|v| **v != 0.0).count() as f64,
+        Some(gd) => {
+            let ga = DMatrix::from_fn(active.len(), active.len(), |i, j| g[(active[i], active[j])]);
+            let gda = DMatrix::from_fn(active.len(), active.len(), |i, j| {
+                gd[(active[i], active[j])]
+            });
+            match ga.cholesky() {
+                Some(ch) => ch.solve(&gda).trace(),
+                None => x.iter().filter(|v| **v != 0.0).count() as f64,
+            }
+        }
+    };
     let alpha: [DVector<f64>; 3] =
         std::array::from_fn(|c| DVector::from_fn(m, |j, _| x[idx(c, j)]));
     let beta: Vec<f64> = (0..nk).map(|k| x[beta0 + k]).collect();
@@ -291,7 +380,7 @@ pub(crate) fn solve_joint(
             .map(|i| (0..nk).map(|k| cols[(c * n + i) * nk + k] * beta[k]).sum())
             .collect()
     });
-    (alpha, beta, curve)
+    (alpha, beta, curve, dof)
 }
 
 #[cfg(test)]

@@ -202,8 +202,10 @@ fn bic(problem: &Problem, j: &Joint) -> f64 {
 pub(crate) fn search(problem: &Problem, fit: &Fitted) -> Search {
     let n = problem.n_samples();
     let y = problem.data();
+    // the matched filter works in image units; the SSE is of the weighted residual
     let noise: [f64; 3] = std::array::from_fn(|c| profile_noise(y[c]));
-    let noise_rms = (noise.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
+    let noise_w: [f64; 3] = std::array::from_fn(|c| profile_noise(&problem.whitened(c)));
+    let noise_rms = (noise_w.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
     let peak = (0..3)
         .flat_map(|c| y[c].iter().copied())
         .fold(f64::MIN, f64::max)
@@ -229,7 +231,15 @@ pub(crate) fn search(problem: &Problem, fit: &Fitted) -> Search {
             .map(|i| falloff(v, u[i]) * vfix.get(i).copied().unwrap_or(1.0))
             .collect();
         let g = |d: f64| problem.passband().eval(d, fwhm);
-        let score = xl::matched_filter(&lams, &scale, &eval_res, &g, 2.0 * fwhm, noise, peak);
+        let score = xl::matched_filter(
+            &lams,
+            &scale,
+            &problem.unweighted(&eval_res),
+            &g,
+            2.0 * fwhm,
+            noise,
+            peak,
+        );
         let mut skip: Vec<f64> = listed.clone();
         skip.extend(found.iter().map(|f| f.nm));
         skip.extend(blended.iter().map(|b| b.nm));

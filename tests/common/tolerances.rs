@@ -266,11 +266,17 @@ pub mod lvf_continuum {
     /// measured 0.14–0.31 nm on seeds 200–202 with the black clipping undone (0.17–0.39 before;
     /// per-channel 0.38–1.00). Since the focused criterion (sixteenth session): Canon 0.201 /
     /// 0.310 nm (`shared-spectrum11` kept: the finer spacing moves λ by only 0.04 nm at 700 nm
-    /// there), Nikon 0.038 / 0.007, SONY NEX-5N 0.040 / 0.087 — the issue's 0.3 nm missed on the
-    /// Canon image; this bound catches regressions.
+    /// there), Nikon 0.038 / 0.007, SONY NEX-5N 0.040 / 0.087. Since the penalised shared spectrum
+    /// with noise weights (seventeenth session): Canon 0.130 / 0.309 nm (the 707–712 nm lines
+    /// are not found on this realisation and 700 nm rests on 611–651 nm), Nikon 0.046 / 0.052,
+    /// SONY NEX-5N 0.002 / 0.017 — the issue's 0.3 nm still missed, by 0.009 nm, on the Canon
+    /// image; this bound catches regressions.
     pub const CFL_SHARED_BOUND_NM: f64 = 0.5;
-    /// Issue 12's bound for a CFL at 1 % noise, asserted where the focused criterion is tested.
+    /// Issue 12's bound for a CFL at 1 % noise, asserted where the focused criterion and the
+    /// penalised shared spectrum are tested.
     pub const CFL_ISSUE_BOUND_NM: f64 = 0.3;
+    /// Issue 12's bound at 5 % noise, asserted for the penalised shared spectrum.
+    pub const CFL_5PCT_BOUND_NM: f64 = 0.4;
     /// A CFL at 5 % noise without the camera: the issue asks 0.4 nm; the passband continuum the
     /// focused criterion takes reaches 0.40–0.57 nm on the grid (two seeds × three cameras; the
     /// spline in u BIC chose 0.72–1.30). NOT met in general; this bound catches regressions.
@@ -313,7 +319,10 @@ pub mod lvf_camera_mismatch {
     /// Issue 12's bound for a CFL under its phosphor continuum at 1 % noise. Measured the same
     /// way (seed 2): Jiang curves 0.075 / 0.164 nm (BIC takes the shared spectrum through them),
     /// 5D Mark III curves 0.038 / 0.092 nm (per-channel passband continuum); the matching Weta
-    /// curves 0.040 / 0.057 nm (shared spectrum).
+    /// curves 0.040 / 0.057 nm (shared spectrum). Since the penalised, noise-weighted shared
+    /// spectrum (seventeenth session): Jiang 0.031 / 0.218 nm (`shared-spectrum32-s0.03`),
+    /// 5D Mark III 0.024 / 0.037 (passband continuum), matching Weta 0.061 / 0.135
+    /// (`shared-spectrum40-s0.01`) — worse than before with given curves, still within 0.3.
     pub const CFL_TOL_NM: f64 = 0.3;
 }
 

@@ -113,10 +113,27 @@ pub struct CalibrateArgs {
     /// Do not estimate and divide out a radial fall-off from the ROI's strips across the axis.
     #[arg(long)]
     pub no_radial_falloff: bool,
+    /// Weight each profile sample by its noise estimated from the profile (read + shot noise,
+    /// `diagnostics.noise_model` in lvf.json): auto weights when --camera is given (the shared
+    /// continuum spectrum can follow the continuum; the models without the camera are biased
+    /// under a CFL and weighting the dim flanks amplifies that), on, or off.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub weights: WeightsArg,
     /// Knot spacings of the continuum candidates in units of the FWHM, coarsest first
     /// (0.8–10 each; the first is also the one `--background continuum` uses).
     #[arg(long, value_delimiter = ',', default_value = "2.5,1.5,1.0")]
     pub continuum_knots: Vec<f64>,
+    /// With --camera: knot spacings of the continuum spectrum shared by the three channels, in
+    /// units of the FWHM (0.25–10 each), each smoothed by a roughness penalty that grows with
+    /// the noise; with several, BIC and then the focused criterion choose.
+    #[arg(long, value_delimiter = ',', default_value = "0.35")]
+    pub shared_knots: Vec<f64>,
+    /// With --camera: prior roughness values of the shared spectrum's candidates — its second
+    /// differences at the knots are taken as about this fraction of its RMS, so the penalty grows
+    /// with the noise; BIC and then the focused criterion choose; 0: no penalty (the knot spacing
+    /// alone limits the spectrum).
+    #[arg(long, value_delimiter = ',', default_value = "0.01,0.03")]
+    pub shared_smoothness: Vec<f64>,
     /// Flat-field photo through the LVF (broadband source, same size and framing): its smooth
     /// fall-off is divided out instead of the one modelled from the lamp photo.
     #[arg(long)]
@@ -131,6 +148,17 @@ pub struct CalibrateArgs {
     /// --flat-spectrum is seen through.
     #[arg(long)]
     pub camera: Option<PathBuf>,
+}
+
+/// Noise weights of the whole-profile fit.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum WeightsArg {
+    /// Weighted when --camera is given.
+    Auto,
+    /// Always weighted.
+    On,
+    /// Never weighted.
+    Off,
 }
 
 /// Background terms of the whole-profile fit.
@@ -182,6 +210,26 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         anyhow::bail!(
             "--continuum-knots: {:?}; expected one or more spacings of 0.8–10 FWHM, e.g. 2.5,1.5",
             a.continuum_knots
+        );
+    }
+    if a.shared_knots.is_empty()
+        || a.shared_knots
+            .iter()
+            .any(|k| !(k.is_finite() && (0.25..=10.0).contains(k)))
+    {
+        anyhow::bail!(
+            "--shared-knots: {:?}; expected one or more spacings of 0.25–10 FWHM, e.g. 1.5,1.0,0.75",
+            a.shared_knots
+        );
+    }
+    if a.shared_smoothness.is_empty()
+        || a.shared_smoothness
+            .iter()
+            .any(|v| !(v.is_finite() && (0.0..=10.0).contains(v)))
+    {
+        anyhow::bail!(
+            "--shared-smoothness: {:?}; expected one or more values of 0 (no penalty) to 10, e.g. 0.01,0.03,0.1",
+            a.shared_smoothness
         );
     }
     lumifit::limits::check_count(
@@ -279,7 +327,14 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
             BackgroundArg::ContinuumFalloff => fixed(true, 2),
         },
         radial_falloff: !a.no_radial_falloff,
+        noise_weights: match a.weights {
+            WeightsArg::Auto => None,
+            WeightsArg::On => Some(true),
+            WeightsArg::Off => Some(false),
+        },
         continuum_knots_fwhm: a.continuum_knots.clone(),
+        shared_knots_fwhm: a.shared_knots.clone(),
+        shared_smoothness: a.shared_smoothness.clone(),
         camera,
         fixed_falloff: None,
         ..FitOptions::default()
