@@ -228,7 +228,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
             .any(|v| !(v.is_finite() && (0.0..=10.0).contains(v)))
     {
         anyhow::bail!(
-            "--shared-smoothness: {:?}; expected one or more values of 0 (no penalty) to 10, e.g. 0.01,0.03,0.1",
+            "--shared-smoothness: {:?}; expected one or more values of 0 (no penalty) to 10, e.g. 0.01,0.03",
             a.shared_smoothness
         );
     }
