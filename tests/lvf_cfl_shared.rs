@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
 use lumifit::lvf::{
     calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
-    LvfSynthSpec,
+    LvfCalibration, LvfSynthSpec,
 };
 use lumifit::spectrum::MultiSpectrum;
 mod common;
@@ -33,17 +33,24 @@ fn spec(cam: MultiSpectrum, shape: ContinuumShape, vignetting: f64, seed: u64) -
     )
 }
 
-/// |Δλ| at 400 and 700 nm and the background model chosen.
-fn errors(s: &LvfSynthSpec, opts: &FitOptions) -> ([f64; 2], String, bool) {
+/// The CFL calibration of a rendered image and its signed λ errors at the true 400 and 700 nm
+/// positions.
+fn calibrated(s: &LvfSynthSpec, opts: &FitOptions) -> (LvfCalibration, [f64; 2]) {
     let (frame, truth) = render_lvf(s).unwrap();
     let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
     let cal = calibrate_whole_profile(&profile, &Lamp::cfl(), opts).unwrap();
     let e = [
-        (cal.map.eval(truth.px_at_400) - 400.0).abs(),
-        (cal.map.eval(truth.px_at_700) - 700.0).abs(),
+        cal.map.eval(truth.px_at_400) - 400.0,
+        cal.map.eval(truth.px_at_700) - 700.0,
     ];
+    (cal, e)
+}
+
+/// |Δλ| at 400 and 700 nm and the background model chosen.
+fn errors(s: &LvfSynthSpec, opts: &FitOptions) -> ([f64; 2], String, bool) {
+    let (cal, e) = calibrated(s, opts);
     let bg = cal.background.unwrap();
-    (e, bg.model, bg.shared_spectrum.is_some())
+    (e.map(f64::abs), bg.model, bg.shared_spectrum.is_some())
 }
 
 /// The shared spectrum against three free splines in u (the per-channel continuum it was built
@@ -199,13 +206,7 @@ fn the_focused_criterion_refines_the_shared_spectrum_and_says_so() {
         noise_weights: Some(false),
         ..FitOptions::default()
     };
-    let (frame, truth) = render_lvf(&s).unwrap();
-    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-    let cal = calibrate_whole_profile(&profile, &Lamp::cfl(), &opts).unwrap();
-    let e = [
-        cal.map.eval(truth.px_at_400) - 400.0,
-        cal.map.eval(truth.px_at_700) - 700.0,
-    ];
+    let (cal, e) = calibrated(&s, &opts);
     let bg = cal.background.unwrap();
     eprintln!(
         "{name}, seed 1: {:+.3} / {:+.3} nm ({}); {}",
@@ -244,13 +245,7 @@ fn without_the_camera_a_biased_spline_in_u_gives_way_to_the_passband_continuum()
     let name = CAMERAS[0];
     let mut s = spec(camera(&db, name), ContinuumShape::Cfl, 0.3, 1);
     s.noise = 0.05;
-    let (frame, truth) = render_lvf(&s).unwrap();
-    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-    let cal = calibrate_whole_profile(&profile, &Lamp::cfl(), &FitOptions::default()).unwrap();
-    let e = [
-        cal.map.eval(truth.px_at_400) - 400.0,
-        cal.map.eval(truth.px_at_700) - 700.0,
-    ];
+    let (cal, e) = calibrated(&s, &FitOptions::default());
     let bg = cal.background.unwrap();
     let spline = bg
         .candidates
@@ -258,7 +253,8 @@ fn without_the_camera_a_biased_spline_in_u_gives_way_to_the_passband_continuum()
         .filter(|c| c.model.starts_with("continuum"))
         .min_by(|a, b| a.bic.total_cmp(&b.bic))
         .unwrap();
-    let spline_e = spline.nm_at_700_position.unwrap() - cal.map.eval(truth.px_at_700) + e[1];
+    // the spline's λ where the chosen map puts 700 nm, less 700 (as before: (λ_s − λ_chosen) + e[1])
+    let spline_e = spline.nm_at_700_position.unwrap() - 700.0;
     eprintln!(
         "{name}, 5 %, no camera: {:+.3} / {:+.3} nm ({}); best spline in u {} at 700 nm {:+.3}; {}",
         e[0], e[1], bg.model, spline.model, spline_e, bg.selection
@@ -296,13 +292,7 @@ fn the_penalised_shared_spectrum_meets_the_cfl_bounds_at_1_and_5_percent_noise()
     for (noise, bound) in [(0.01, CFL_ISSUE_BOUND_NM), (0.05, CFL_5PCT_BOUND_NM)] {
         let mut s = spec(cam.clone(), ContinuumShape::Cfl, 0.3, 1);
         s.noise = noise;
-        let (frame, truth) = render_lvf(&s).unwrap();
-        let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-        let cal = calibrate_whole_profile(&profile, &Lamp::cfl(), &opts).unwrap();
-        let e = [
-            cal.map.eval(truth.px_at_400) - 400.0,
-            cal.map.eval(truth.px_at_700) - 700.0,
-        ];
+        let (cal, e) = calibrated(&s, &opts);
         let bg = cal.background.as_ref().unwrap();
         let nm = &cal.diagnostics["noise_model"];
         eprintln!(

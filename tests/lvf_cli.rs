@@ -121,6 +121,38 @@ fn lamp_image_without_lines_and_roi_outside_exit_2_with_the_cause() {
     assert!(!dir.path().join("o.json").exists(), "no output on failure");
 }
 
+/// The list options of the shared continuum (`--shared-knots`, `--shared-smoothness`) and of the
+/// splines in u (`--continuum-knots`) refuse a value out of range with exit 2, naming the flag and
+/// the range, before reading the image; nothing is written.
+#[test]
+fn out_of_range_knot_and_smoothness_lists_exit_2_naming_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.json");
+    for (flag, value, range) in [
+        ("--shared-knots", "0.35,0.1", "0.25–10 FWHM"),
+        ("--shared-smoothness", "-0.01", "0 (no penalty) to 10"),
+        ("--continuum-knots", "0.5", "0.8–10 FWHM"),
+    ] {
+        let o = lumifit(&[
+            "lvf",
+            "calibrate",
+            "no-such-image.tiff",
+            "--axis",
+            "x",
+            &format!("{flag}={value}"),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(flag) && stderr(&o).contains(range),
+            "{flag}: {}",
+            stderr(&o)
+        );
+        assert!(!out.exists(), "{flag}: no output on a refused option");
+    }
+}
+
 /// Issue 13 ("garbage is detected"): `lvf calibrate` on a frame that is not a lamp photo (a
 /// broadband blackbody through the LVF) and on a CFL image with `--lamp hg` must not exit 0
 /// silently: either exit 2 with a message, or warnings on stderr and in lvf.json. Without

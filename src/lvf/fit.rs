@@ -1564,7 +1564,7 @@ pub fn calibrate_whole_profile(
         selection: match &focused {
             None => selection_rule.into(),
             Some(f) => format!(
-                "bic chose {}; {} has the smaller estimated mean squared error of λ at 400 + 700 nm (focused information criterion against the model that draws the continuum without bias, the finest of a shared spectrum's spacings or, for a spline in u, the passband continuum: {:.3e} against {:.3e} nm²; it moves λ there by {:+.3} / {:+.3} nm)",
+                "bic chose {}; {} has the smaller estimated mean squared error of λ at 400 + 700 nm (focused information criterion against the model that draws the continuum without bias, the most flexible shared spectrum (finest spacing, then weakest roughness penalty) or, for a spline in u, the passband continuum: {:.3e} against {:.3e} nm²; it moves λ there by {:+.3} / {:+.3} nm)",
                 f.bic_choice,
                 pr.terms.name(),
                 f.mse[1],
@@ -2018,8 +2018,8 @@ struct FocusedChoice {
 /// (the bias² estimate less the variance of the difference, v_W − v_N for nested models, plus
 /// N's variance). Here μ is λ at the chosen map's 400 and 700 nm positions (MSEs summed) and v the
 /// statistical variance of each fit. W is a model that can draw what lies under the lines
-/// without bias: for a shared spectrum through a known camera (`--camera`) the finest spacing of
-/// that family (close to nested); for a spline in u the per-channel passband continuum (not
+/// without bias: for a shared spectrum through a known camera (`--camera`) the most flexible of
+/// that family — finest spacing, then weakest roughness penalty (close to nested); for a spline in u the per-channel passband continuum (not
 /// nested: the bound v_W + v_N on the variance of the difference, below). The passband continuum
 /// itself has one spacing and is not revised. Returns the index in `others` of W when its MSE is
 /// the smaller, with the numbers.

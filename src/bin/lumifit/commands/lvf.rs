@@ -198,40 +198,41 @@ fn fixed(continuum: bool, falloff_degree: usize) -> BackgroundChoice {
     }
 }
 
+/// A comma-separated option's values: at least one, each finite and within `range`.
+fn check_list(
+    flag: &str,
+    values: &[f64],
+    range: std::ops::RangeInclusive<f64>,
+    expected: &str,
+) -> Result<()> {
+    if values.is_empty() || values.iter().any(|v| !(v.is_finite() && range.contains(v))) {
+        anyhow::bail!("{flag}: {values:?}; expected one or more {expected}");
+    }
+    Ok(())
+}
+
 fn calibrate(a: &CalibrateArgs) -> Result<()> {
     if !(a.fwhm_guess.is_finite() && a.fwhm_guess > 1.0 && a.fwhm_guess < 200.0) {
         anyhow::bail!("--fwhm-guess: {} nm; expected 1–200", a.fwhm_guess);
     }
-    if a.continuum_knots.is_empty()
-        || a.continuum_knots
-            .iter()
-            .any(|k| !(k.is_finite() && (0.8..=10.0).contains(k)))
-    {
-        anyhow::bail!(
-            "--continuum-knots: {:?}; expected one or more spacings of 0.8–10 FWHM, e.g. 2.5,1.5",
-            a.continuum_knots
-        );
-    }
-    if a.shared_knots.is_empty()
-        || a.shared_knots
-            .iter()
-            .any(|k| !(k.is_finite() && (0.25..=10.0).contains(k)))
-    {
-        anyhow::bail!(
-            "--shared-knots: {:?}; expected one or more spacings of 0.25–10 FWHM, e.g. 1.5,1.0,0.75",
-            a.shared_knots
-        );
-    }
-    if a.shared_smoothness.is_empty()
-        || a.shared_smoothness
-            .iter()
-            .any(|v| !(v.is_finite() && (0.0..=10.0).contains(v)))
-    {
-        anyhow::bail!(
-            "--shared-smoothness: {:?}; expected one or more values of 0 (no penalty) to 10, e.g. 0.01,0.03",
-            a.shared_smoothness
-        );
-    }
+    check_list(
+        "--continuum-knots",
+        &a.continuum_knots,
+        0.8..=10.0,
+        "spacings of 0.8–10 FWHM, e.g. 2.5,1.5",
+    )?;
+    check_list(
+        "--shared-knots",
+        &a.shared_knots,
+        0.25..=10.0,
+        "spacings of 0.25–10 FWHM, e.g. 0.35 or 1.5,1.0,0.75",
+    )?;
+    check_list(
+        "--shared-smoothness",
+        &a.shared_smoothness,
+        0.0..=10.0,
+        "values of 0 (no penalty) to 10, e.g. 0.01,0.03",
+    )?;
     lumifit::limits::check_count(
         "--bands",
         a.bands,
