@@ -141,8 +141,10 @@ fn the_cli_reads_an_academy_json_camera_and_refuses_a_broken_one() {
     if academy(WETA_5D2).is_none() {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/tmp-lvf-camera-json");
-    std::fs::create_dir_all(&dir).unwrap();
+    // a directory of its own: a fixed one under target/ was shared with any other run of this
+    // test (a CI run killed mid-way left one running and its files vanished under the next)
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().to_path_buf();
     let cam = path.to_str().unwrap();
     let (img, truth, out) = (
         common::p(&dir, "hg.tiff"),
@@ -208,5 +210,4 @@ fn the_cli_reads_an_academy_json_camera_and_refuses_a_broken_one() {
     ]);
     common::assert_rejected(&o, &["bad.json", &format!("line {line}"), "negative"]);
     assert!(!std::path::Path::new(&out2).exists());
-    std::fs::remove_dir_all(&dir).ok();
 }
