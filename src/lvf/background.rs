@@ -209,8 +209,17 @@ pub struct RadialFalloff {
     /// κ₀, κ₁ in d ln V / d(r²) = κ₀ + κ₁·r² (r = distance from the image centre over the half
     /// diagonal).
     pub kappa: [f64; 2],
-    /// Their standard errors (κ₁'s is 0 when it was not significant and left out).
+    /// Their standard errors (cluster-robust; κ₁'s is 0 when it was left out: under
+    /// [`KAPPA1_KEEP_SIGMA`] of its σ, or not determined by the strips).
     pub kappa_sigma: [f64; 2],
+    /// κ₀, κ₁ fitted together (equal to `kappa` when κ₁ was kept).
+    pub kappa_two_term: [f64; 2],
+    /// The covariance (cluster-robust) of `kappa_two_term`: the uncertainty of the fall-off's
+    /// shape whether or not κ₁ was used, propagated into the map's statistical σ.
+    pub kappa_covariance: [[f64; 2]; 2],
+    /// κ₀ and its σ when fitted alone (κ₁ = 0): the sharper test of whether there is a fall-off
+    /// at all ([`RadialFalloff::significant`]).
+    pub kappa0_alone: [f64; 2],
     /// The centre assumed (source px): the image centre.
     pub centre_px: [f64; 2],
     /// Half diagonal (px).
@@ -222,7 +231,54 @@ pub struct RadialFalloff {
     /// V at each profile position, peak 1.
     #[serde(skip)]
     pub along: Vec<f64>,
+    /// r² at each profile position (on the profile's centre line, strips averaged):
+    /// ∂ ln V/∂κ = (Q, Q²/2).
+    #[serde(skip)]
+    pub q_along: Vec<f64>,
 }
+
+/// The radial fall-off is divided out only when it differs from none by more than noise: κ₀
+/// fitted alone beyond 3 of its (cluster-robust) σ, or κ = (κ₀, κ₁) jointly beyond the χ²₂
+/// quantile of the same p = 0.0027 — a spurious fall-off biases the map more than none. Against
+/// the formal σ of κ₀ this was 6σ (images without vignetting scattered by up to ~4 formal σ);
+/// the robust σ is 3–4× the formal one and follows the scatter of κ₀ over seeds (≈ 0.015 at 1 %
+/// noise). With κ₁ free, κ₀ alone can be 0 under a strong fall-off (a 5 % noise image:
+/// κ = (+0.01 ± 0.08, −0.67 ± 0.30) for a 1 − 0.3·r² vignetting), hence the one-term test.
+pub const RADIAL_APPLY: (f64, f64) = (3.0, 11.83);
+
+impl RadialFalloff {
+    /// Whether the fall-off is distinguishable from none ([`RADIAL_APPLY`]).
+    pub fn significant(&self) -> bool {
+        let [k0, s0] = self.kappa0_alone;
+        (s0 > 0.0 && k0.abs() > RADIAL_APPLY.0 * s0) || self.wald_chi2() > RADIAL_APPLY.1
+    }
+
+    /// The Wald statistic κᵀΣ⁻¹κ of the two-term κ against no fall-off (Σ its covariance; over
+    /// κ₀ alone when the strips do not determine κ₁). 0 when Σ is singular.
+    pub fn wald_chi2(&self) -> f64 {
+        let [k0, k1] = self.kappa_two_term;
+        let c = self.kappa_covariance;
+        if c[1][1] > 0.0 {
+            let det = c[0][0] * c[1][1] - c[0][1] * c[1][0];
+            if det <= 0.0 {
+                return 0.0;
+            }
+            (k0 * k0 * c[1][1] - 2.0 * k0 * k1 * c[0][1] + k1 * k1 * c[0][0]) / det
+        } else if c[0][0] > 0.0 {
+            k0 * k0 / c[0][0]
+        } else {
+            0.0
+        }
+    }
+}
+
+/// κ₁ is used when beyond this many of its (cluster-robust) σ. Kept always, it drew a
+/// 1 − 0.3·r² vignetting better (a CFL's map at 700 nm: 0.017–0.075 nm against 0.069–0.106
+/// with it dropped under 4 formal σ, ≈ 1 robust σ), but followed the misfit of a fall-off
+/// centred elsewhere (an off-centre 0.3 fall-off, Hg, seed 5: 0.176 nm at 700 nm against 0.146);
+/// at 2σ the shape is used when the strips show it, and its uncertainty (the two-term
+/// covariance) reaches the map's σ either way.
+pub const KAPPA1_KEEP_SIGMA: f64 = 2.0;
 
 /// Smallest signal (fraction of the channel's peak) at which a strip ratio is used.
 const STRIP_MIN_SIGNAL: f64 = 0.05;
@@ -236,8 +292,9 @@ const STRIP_MIN_SIGNAL: f64 = 0.05;
 /// at position a along the axis, strip j at distance b_j across has
 /// ln(y_j/ȳ) ≈ κ(r²)·(q_j − q̄), q = (b − b_c)²/R², κ = d ln V/d(r²) — the same for every line,
 /// continuum and channel. κ(r²) = κ₀ + κ₁·r² is solved by weighted least squares (weights
-/// value²·pixels, positions where the channel is above 5 % of its peak), κ₁ kept only when
-/// above 4σ (the formal σ underestimates the scatter by up to ~2×), and V along the profile is
+/// value²·pixels, positions where the channel is above 5 % of its peak; covariance clustered by
+/// position, [`solve_strip_rows`]), κ₁ kept when beyond [`KAPPA1_KEEP_SIGMA`] of its σ, and V
+/// along the profile is
 /// exp(κ₀·Q + κ₁·Q²/2), Q = r² on the profile's centre
 /// line. This assumes the fall-off is radial about the image centre (lens vignetting,
 /// cos⁴ law); a tilt or an off-centre fall-off is not seen this way (a flat-field photo would
@@ -279,8 +336,8 @@ pub fn estimate_radial_falloff(profile: &crate::lvf::Profile) -> Option<RadialFa
     let big_q: Vec<f64> = (0..n)
         .map(|i| (profile.px[i] - ca).powi(2) / r2 + qbar[i])
         .collect();
-    // rows (d, d·Q) → ln ratio, weight
-    let mut rows: Vec<(f64, f64, f64, f64)> = Vec::new();
+    // rows (d, d·Q) → ln ratio, weight, position (the cluster of the robust covariance)
+    let mut rows: Vec<(f64, f64, f64, f64, usize)> = Vec::new();
     for c in 0..3 {
         let v = &profile.values[c];
         let peak = v.iter().cloned().fold(0.0, f64::max);
@@ -302,53 +359,23 @@ pub fn estimate_radial_falloff(profile: &crate::lvf::Profile) -> Option<RadialFa
                     d * big_q[i],
                     (sv / v[i]).ln(),
                     v[i] * v[i] * s.counts[i] as f64,
+                    i,
                 ));
             }
         }
     }
-    let solve = |two: bool| -> Option<([f64; 2], [f64; 2])> {
-        let (mut a00, mut a01, mut a11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(x0, x1, y, wt) in &rows {
-            a00 += wt * x0 * x0;
-            a01 += wt * x0 * x1;
-            a11 += wt * x1 * x1;
-            b0 += wt * x0 * y;
-            b1 += wt * x1 * y;
-        }
-        let m = rows.len() as f64;
-        let p = if two { 2.0 } else { 1.0 };
-        if a00 <= 0.0 || m <= p + 1.0 {
-            return None;
-        }
-        let k = if two {
-            let det = a00 * a11 - a01 * a01;
-            if det <= 1e-12 * a00 * a11 {
-                return None;
-            }
-            [(b0 * a11 - b1 * a01) / det, (a00 * b1 - a01 * b0) / det]
-        } else {
-            [b0 / a00, 0.0]
-        };
-        let (mut sr, mut sw) = (0.0, 0.0);
-        for &(x0, x1, y, wt) in &rows {
-            let r = y - k[0] * x0 - k[1] * x1;
-            sr += wt * r * r;
-            sw += wt;
-        }
-        let _ = sw;
-        let s2 = sr / (m - p);
-        let sig = if two {
-            let det = a00 * a11 - a01 * a01;
-            [(s2 * a11 / det).sqrt(), (s2 * a00 / det).sqrt()]
-        } else {
-            [(s2 / a00).sqrt(), 0.0]
-        };
-        Some((k, sig))
+    let one = solve_strip_rows(&rows, n, false)?;
+    let two = solve_strip_rows(&rows, n, true);
+    // κ₁ is used when the strips determine it (beyond KAPPA1_KEEP_SIGMA of its robust σ); the
+    // two-term covariance is the fall-off's uncertainty either way.
+    let (kappa, sigma) = match two {
+        Some((k, s, _)) if k[1].abs() > KAPPA1_KEEP_SIGMA * s[1] => (k, s),
+        _ => (one.0, one.1),
     };
-    let (mut kappa, mut sigma) = solve(true).or_else(|| solve(false))?;
-    if kappa[1].abs() < 4.0 * sigma[1] {
-        (kappa, sigma) = solve(false)?;
-    }
+    let (kappa_two_term, covariance) = match two {
+        Some((k, _, c)) => (k, c),
+        None => (one.0, one.2),
+    };
     let ln_v: Vec<f64> = big_q
         .iter()
         .map(|&q| kappa[0] * q + 0.5 * kappa[1] * q * q)
@@ -358,10 +385,94 @@ pub fn estimate_radial_falloff(profile: &crate::lvf::Profile) -> Option<RadialFa
     Some(RadialFalloff {
         kappa,
         kappa_sigma: sigma,
+        kappa_covariance: covariance,
+        kappa0_alone: [one.0[0], one.1[0]],
+        kappa_two_term,
         centre_px: [cx, cy],
         half_diagonal_px: r2.sqrt(),
         at_ends: [along[0], along[n - 1]],
         samples: rows.len(),
         along,
+        q_along: big_q,
     })
+}
+
+/// κ, their standard errors and covariance, of one strip fit.
+type StripFit = ([f64; 2], [f64; 2], [[f64; 2]; 2]);
+
+/// Weighted least squares of the strip rows (d, d·Q, ln ratio, weight, position) for κ₀ (and
+/// κ₁ when `two`): κ, their standard errors and covariance. The covariance is the
+/// cluster-robust sandwich A⁻¹(Σ_i g_i g_iᵀ)A⁻¹·G/(G − 1) with one cluster per profile position
+/// i (all strips and channels there share the position's mean in their ratios, and the noise
+/// grows with the signal, so the rows are neither independent nor of the weights' variance; the
+/// formal s²A⁻¹ understated the scatter of κ₀ by up to ~4× on images without vignetting).
+/// None when A is singular or there are too few rows or positions.
+fn solve_strip_rows(
+    rows: &[(f64, f64, f64, f64, usize)],
+    n_positions: usize,
+    two: bool,
+) -> Option<StripFit> {
+    let (mut a00, mut a01, mut a11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(x0, x1, y, wt, _) in rows {
+        a00 += wt * x0 * x0;
+        a01 += wt * x0 * x1;
+        a11 += wt * x1 * x1;
+        b0 += wt * x0 * y;
+        b1 += wt * x1 * y;
+    }
+    let p = if two { 2 } else { 1 };
+    if a00 <= 0.0 || rows.len() <= p + 1 {
+        return None;
+    }
+    // A⁻¹ (2 × 2, or 1 × 1 in the corner)
+    let inv = if two {
+        let det = a00 * a11 - a01 * a01;
+        if det <= 1e-12 * a00 * a11 {
+            return None;
+        }
+        [[a11 / det, -a01 / det], [-a01 / det, a00 / det]]
+    } else {
+        [[1.0 / a00, 0.0], [0.0, 0.0]]
+    };
+    let k = [
+        inv[0][0] * b0 + inv[0][1] * b1,
+        inv[1][0] * b0 + inv[1][1] * b1,
+    ];
+    // per-position score sums Σ w·x·r
+    let mut score = vec![[0.0f64; 2]; n_positions];
+    let mut used = vec![false; n_positions];
+    for &(x0, x1, y, wt, i) in rows {
+        let r = y - k[0] * x0 - k[1] * x1;
+        score[i][0] += wt * x0 * r;
+        score[i][1] += wt * x1 * r;
+        used[i] = true;
+    }
+    let g = used.iter().filter(|u| **u).count() as f64;
+    if g <= p as f64 + 1.0 {
+        return None;
+    }
+    let mut meat = [[0.0f64; 2]; 2];
+    for s in &score {
+        for a in 0..2 {
+            for b in 0..2 {
+                meat[a][b] += s[a] * s[b];
+            }
+        }
+    }
+    let f = g / (g - 1.0);
+    let mut cov = [[0.0f64; 2]; 2];
+    for a in 0..p {
+        for b in 0..p {
+            cov[a][b] = f
+                * (0..p)
+                    .flat_map(|i| (0..p).map(move |j| (i, j)))
+                    .map(|(i, j)| inv[a][i] * meat[i][j] * inv[j][b])
+                    .sum::<f64>();
+        }
+    }
+    Some((
+        k,
+        [cov[0][0].max(0.0).sqrt(), cov[1][1].max(0.0).sqrt()],
+        cov,
+    ))
 }

@@ -12,7 +12,7 @@
 //! candidates. The covariance of θ is the HAC sandwich (JᵀJ)⁻¹B(JᵀJ)⁻¹ of
 //! [`crate::lvf::sigma`] (noise growing with the signal and residuals correlated along the
 //! profile; s²(JᵀJ)⁻¹ with s² = SSE/(N − p − k) is kept in the diagnostics) and is propagated to
-//! the coefficients in pixels; the spread between background models within ΔBIC ≤ 10 is reported as the systematic
+//! the coefficients in pixels; the spread between background models (within ΔBIC ≤ 10, every continuum when one was chosen; within ΔBIC ≤ 100 with a shared spectrum) is reported as the systematic
 //! part of σ at 400/700 nm. [`assess`] then refuses physically impossible maps and flags what the
 //! model does not explain.
 
@@ -1030,9 +1030,7 @@ pub fn calibrate_whole_profile(
     } else {
         None
     };
-    let radial_applied = radial
-        .as_ref()
-        .is_some_and(|r| r.kappa[0].abs() > RADIAL_APPLY_SIGMA * r.kappa_sigma[0]);
+    let radial_applied = radial.as_ref().is_some_and(|r| r.significant());
     let vfix = match (fixed, &radial, radial_applied) {
         (Some(v), _, _) => v.clone(),
         (None, Some(r), true) => r.along.clone(),
@@ -1380,6 +1378,34 @@ pub fn calibrate_whole_profile(
         Some(s) => s.covariance.clone(),
         None => cov_theta * tau,
     };
+    // The radial fall-off divided out is itself an estimate (κ from the strips, with its
+    // cluster-robust covariance): its uncertainty moves the map by dθ/dκ, added to the
+    // statistical covariance.
+    // Not divided out, the fall-off is taken as none, but the strips only bound it: κ₀ = 0 ± its
+    // σ fitted alone moves the map as much, and is added the same way.
+    let radial_g = match (&radial, fixed) {
+        (Some(r), None) => radial_sensitivity(&pr, &theta, &jac, r),
+        _ => None,
+    };
+    let (cov_theta, sigma_radial) = match (&radial_g, &radial) {
+        (Some(g), Some(r)) => {
+            let k = if radial_applied {
+                DMatrix::from_fn(2, 2, |i, j| r.kappa_covariance[i][j])
+            } else {
+                DMatrix::from_fn(2, 2, |i, j| {
+                    if i == 0 && j == 0 {
+                        r.kappa0_alone[1].powi(2)
+                    } else {
+                        0.0
+                    }
+                })
+            };
+            let add = g * k * g.transpose();
+            let s = sigma_compare(&add);
+            (cov_theta + add, Some(s))
+        }
+        _ => (cov_theta, None),
+    };
     let cov_a = cov_theta.view((0, 0), (deg, deg)).into_owned();
     let cov_c = &t * cov_a * t.transpose();
     let map = MapModel {
@@ -1523,7 +1549,8 @@ pub fn calibrate_whole_profile(
 
     // Model-choice systematic at the 400/700 nm positions: the largest difference to any other
     // candidate within ΔBIC ≤ 10 and, when a continuum was chosen, to every other continuum
-    // (knot spacing) — how much the map depends on how the continuum is drawn.
+    // (knot spacing, or with a shared spectrum every candidate within ΔBIC ≤
+    // MODEL_CHOICE_DELTA_BIC) — how much the map depends on how the continuum is drawn.
     let u_at = |nm: f64| map.inverse(nm).map(|px| (px - m) / h);
     let (u400, u700) = (u_at(400.0), u_at(700.0));
     let mut sys = [0.0f64; 2];
@@ -1540,8 +1567,12 @@ pub fn calibrate_whole_profile(
     for (cpr, cf, cb) in &others {
         let l4 = lam_of(cpr, &cf.theta, u400);
         let l7 = lam_of(cpr, &cf.theta, u700);
-        let same_family = pr.terms.has_continuum() && cpr.terms.has_continuum();
-        if cb - best_bic <= 10.0 || same_family {
+        let counted = if pr.terms.shared_intervals > 0 {
+            cb - best_bic <= MODEL_CHOICE_DELTA_BIC
+        } else {
+            cb - best_bic <= 10.0 || (pr.terms.has_continuum() && cpr.terms.has_continuum())
+        };
+        if counted {
             if let Some(l) = l4 {
                 sys[0] = sys[0].max((l - 400.0).abs());
             }
@@ -1605,7 +1636,7 @@ pub fn calibrate_whole_profile(
         black_clipping: profile.censoring.clone(),
         sigma_includes_systematic: selection_rule == "bic",
         systematic_note: if selection_rule == "bic" {
-            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it; the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to another continuum knot spacing when a continuum was chosen (model-choice uncertainty), and how far the map moves when a listed line the other lines put elsewhere is freed (diagnostics.displaced_lines); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it, and it includes the uncertainty of the radial fall-off divided out (diagnostics.statistical_sigma.radial_falloff_nm_at_400_700); the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to every other continuum when a continuum was chosen (with a shared continuum spectrum through --camera: every candidate within ΔBIC ≤ 100) (model-choice uncertainty; background.candidates lists every candidate's λ there), and how far the map moves when a listed line the other lines put elsewhere is freed (diagnostics.displaced_lines); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
         } else {
             "sigma_nm_at_400/700 are statistical only (the sandwich covariance with a heteroscedasticity- and autocorrelation-consistent middle, Newey–West; one background model was requested, so there is no model-choice spread)".into()
         },
@@ -1664,6 +1695,8 @@ pub fn calibrate_whole_profile(
                 "score_lag1_autocorrelation": sandwich.as_ref().map(|s| s.score_rho.clone()),
                 "homoscedastic_nm_at_400_700": sigma_homoscedastic,
                 "correlation_length_scaled_nm_at_400_700": sigma_tau,
+                "radial_falloff_nm_at_400_700": sigma_radial,
+                "radial_falloff_note": if radial_applied { "included: the uncertainty of the radial fall-off divided out (κ's cluster-robust covariance) propagated to λ by linear response" } else { "included: no fall-off was divided out (not significant), but the strips bound it only to κ₀ = 0 ± its σ fitted alone; that uncertainty propagated to λ by linear response" },
             },
         }),
         curves,
@@ -2168,10 +2201,63 @@ pub(crate) fn profile_noise(values: &[f64]) -> f64 {
     d[d.len() / 2] / (0.6745 * 6f64.sqrt())
 }
 
-/// The radial fall-off is divided out only when κ₀ exceeds this many standard errors: on
-/// images without vignetting the strip estimate scatters by up to ~4 of its formal σ (seeds 1–4
-/// of a 1 % noise Hg image), and a spurious fall-off biases the map more than none.
-const RADIAL_APPLY_SIGMA: f64 = 6.0;
+/// With a shared continuum spectrum chosen (`--camera`), background candidates within this ΔBIC
+/// enter the model-choice systematic. The shared spectrum draws a continuum as the camera sees
+/// it, so a spline or passband continuum thousands of BIC worse is not a plausible alternative:
+/// counting every continuum candidate whatever its ΔBIC, as without a camera, made σ at 700 nm
+/// 1.3–4.5 nm on CFL images whose error was under 0.23 nm (a 9-interval spline at ΔBIC 2763 moved
+/// λ at 700 nm by 0.96 nm for an error of 0.085). On the grid of `scripts/bench/lvf_continuum.py
+/// --shared` (Hg and CFL, three cameras, two seeds) ΔBIC ≤ 100 covered the error at 2σ in 99 %
+/// of (image, position) pairs without the tilted and off-centre fall-offs the strips cannot see
+/// (ΔBIC ≤ 10: 94–97 %). Without a camera every candidate draws the continuum approximately, and
+/// their whole spread is kept as the estimate of that systematic (ΔBIC ≤ 100 alone covered 88 %
+/// of the CFL pairs there and failed `tests/lvf_sigma_coverage.rs`).
+const MODEL_CHOICE_DELTA_BIC: f64 = 100.0;
+
+/// dθ/dκ of the fit at θ for the radial fall-off's κ = (κ₀, κ₁) (p × 2, p = the Jacobian's
+/// columns): the residual's change when ln V moves by ε·∂ln V/∂κ_k (central differences, the
+/// linear coefficients re-solved), carried to θ by the Gauss–Newton step −(JᵀJ)⁻¹Jᵀ·dr.
+/// None when the lengths disagree or JᵀJ is singular.
+fn radial_sensitivity(
+    pr: &Problem,
+    theta: &[f64],
+    jac: &DMatrix<f64>,
+    r: &crate::lvf::background::RadialFalloff,
+) -> Option<DMatrix<f64>> {
+    let n = pr.u.len();
+    if r.q_along.len() != n || !(pr.vfix.is_empty() || pr.vfix.len() == n) || jac.nrows() != 3 * n {
+        return None;
+    }
+    let base = |i: usize| pr.vfix.get(i).copied().unwrap_or(1.0);
+    let chol = (jac.transpose() * jac).cholesky()?;
+    const EPS: f64 = 1e-4;
+    let mut g = DMatrix::zeros(jac.ncols(), 2);
+    for k in 0..2 {
+        let residual = |sign: f64| {
+            let mut q = pr.with(pr.n_map, pr.terms);
+            q.vfix = r
+                .q_along
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| {
+                    let d = if k == 0 { x } else { 0.5 * x * x };
+                    base(i) * (sign * EPS * d).exp()
+                })
+                .collect();
+            q.eval(theta).residual
+        };
+        let (rp, rm) = (residual(1.0), residual(-1.0));
+        if rp.len() != 3 * n || rm.len() != 3 * n {
+            return None;
+        }
+        let dr = DVector::from_iterator(
+            3 * n,
+            rp.iter().zip(&rm).map(|(a, b)| (a - b) / (2.0 * EPS)),
+        );
+        g.set_column(k, &(-chol.solve(&(jac.transpose() * dr))));
+    }
+    Some(g)
+}
 
 /// Wavelengths no lamp can put on a sensor behind a visible LVF.
 const PHYSICAL_NM: (f64, f64) = (200.0, 1200.0);
