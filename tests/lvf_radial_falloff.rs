@@ -98,6 +98,11 @@ fn a_cfl_under_quadratic_vignetting_reports_a_sigma_that_covers_the_falloffs_bia
             propagated >= CFL_MIN_FALLOFF_SIGMA_NM,
             "seed {seed}: {propagated}"
         );
+        // the plot's ± 1σ of ln V: one per position, > 0 at the profile's ends
+        let band = &cal.curves.falloff_sigma;
+        assert_eq!(band.len(), cal.curves.px.len());
+        assert!(band.iter().all(|s| s.is_finite() && *s >= 0.0));
+        assert!(band[0] > 0.0 && band[band.len() - 1] > 0.0);
         assert!(
             e.abs() <= CFL_COVERAGE_K * cal.sigma_nm_at_700,
             "seed {seed}: {e:+.3} nm against σ {:.3}",

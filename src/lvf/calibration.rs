@@ -150,6 +150,9 @@ pub struct ProfileCurves {
     pub background: [Vec<f64>; 3],
     /// The fall-off V at each position (empty for peaks).
     pub falloff: Vec<f64>,
+    /// 1σ of ln V at each position from the radial estimate's covariance (the two-term κ's when
+    /// divided out, κ₀ = 0 ± its σ alone when not); empty when there was no radial estimate.
+    pub falloff_sigma: Vec<f64>,
 }
 
 /// One background model tried by the whole-profile fit.

@@ -1389,17 +1389,8 @@ pub fn calibrate_whole_profile(
     };
     let (cov_theta, sigma_radial) = match (&radial_g, &radial) {
         (Some(g), Some(r)) => {
-            let k = if radial_applied {
-                DMatrix::from_fn(2, 2, |i, j| r.kappa_covariance[i][j])
-            } else {
-                DMatrix::from_fn(2, 2, |i, j| {
-                    if i == 0 && j == 0 {
-                        r.kappa0_alone[1].powi(2)
-                    } else {
-                        0.0
-                    }
-                })
-            };
+            let kc = radial_kappa_covariance(r, radial_applied);
+            let k = DMatrix::from_fn(2, 2, |i, j| kc[i][j]);
             let add = g * k * g.transpose();
             let s = sigma_compare(&add);
             (cov_theta + add, Some(s))
@@ -1530,6 +1521,24 @@ pub fn calibrate_whole_profile(
         }),
         background: background_curve,
         falloff: fall.clone(),
+        falloff_sigma: match (&radial, fixed) {
+            (Some(r), None) if r.q_along.len() == n => {
+                let k = radial_kappa_covariance(r, radial_applied);
+                r.q_along
+                    .iter()
+                    .map(|&q| {
+                        let d = [q, 0.5 * q * q];
+                        (0..2)
+                            .flat_map(|i| (0..2).map(move |j| (i, j)))
+                            .map(|(i, j)| d[i] * k[i][j] * d[j])
+                            .sum::<f64>()
+                            .max(0.0)
+                            .sqrt()
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
+        },
     };
     // The free offset and the spline (a partition of unity) share the constant, so the spline
     // alone is not meaningful: the continuum's size is that of everything that is not lines
@@ -2213,6 +2222,20 @@ pub(crate) fn profile_noise(values: &[f64]) -> f64 {
 /// their whole spread is kept as the estimate of that systematic (ΔBIC ≤ 100 alone covered 88 %
 /// of the CFL pairs there and failed `tests/lvf_sigma_coverage.rs`).
 const MODEL_CHOICE_DELTA_BIC: f64 = 100.0;
+
+/// The covariance of κ = (κ₀, κ₁) that stands for the fall-off's uncertainty: the two-term
+/// fit's when the fall-off was divided out; when not, κ₀ = 0 ± its σ fitted alone (the strips
+/// only bound it), κ₁ = 0.
+fn radial_kappa_covariance(
+    r: &crate::lvf::background::RadialFalloff,
+    applied: bool,
+) -> [[f64; 2]; 2] {
+    if applied {
+        r.kappa_covariance
+    } else {
+        [[r.kappa0_alone[1].powi(2), 0.0], [0.0, 0.0]]
+    }
+}
 
 /// dθ/dκ of the fit at θ for the radial fall-off's κ = (κ₀, κ₁) (p × 2, p = the Jacobian's
 /// columns): the residual's change when ln V moves by ε·∂ln V/∂κ_k (central differences, the

@@ -196,6 +196,7 @@ pub fn calibrate_peaks(
             model: Default::default(),
             background: Default::default(),
             falloff: Vec::new(),
+            falloff_sigma: Vec::new(),
         },
     };
     cal.set_bands(opts.n_bands)?;

@@ -21,6 +21,8 @@ const CHANNEL_RGB: [[u8; 3]; 3] = [[200, 40, 40], [30, 150, 60], [40, 80, 210]];
 const MODEL_RGB: [[u8; 3]; 3] = [[110, 10, 10], [10, 80, 25], [10, 30, 120]];
 const BACKGROUND_RGB: [[u8; 3]; 3] = [[240, 150, 150], [140, 210, 150], [150, 170, 240]];
 const FALLOFF_RGB: [u8; 3] = [120, 120, 120];
+/// The fall-off's ± 1σ.
+const FALLOFF_BAND_RGB: [u8; 3] = [185, 185, 185];
 
 /// Writes the calibration chart (1400 × 900 px PNG) to `path`.
 ///
@@ -93,7 +95,7 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
         draw_text(&root, &t, (w as i32 / 2, TITLE_H / 2 - 10), style)?;
         let legend = match &cal.background {
             Some(b) => format!(
-                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak ({}) · {} warning(s){}",
+                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak ({}{}) · {} warning(s){}",
                 b.model,
                 100.0 * b.continuum_peak_relative,
                 if c.falloff.iter().any(|v| *v != 1.0) {
@@ -106,6 +108,11 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                     )
                 } else {
                     "none applied".to_string()
+                },
+                if c.falloff_sigma.is_empty() {
+                    ""
+                } else {
+                    "; thin light grey: ± 1σ of the strips' estimate"
                 },
                 cal.warnings.len(),
                 cal.warnings.first().map(|w| format!(": {w}")).unwrap_or_default()
@@ -151,6 +158,16 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                     .zip(c.falloff.iter().map(|v| v * ymax))
                     .collect();
             draw_curve(&mut chart, &pts, FALLOFF_RGB, 2)?;
+            if c.falloff_sigma.len() == c.px.len() {
+                for sign in [-1.0, 1.0] {
+                    let pts: Vec<(f64, f64)> =
+                        c.px.iter()
+                            .zip(c.falloff.iter().zip(&c.falloff_sigma))
+                            .map(|(&x, (v, s))| (x, v * (sign * s).exp() * ymax))
+                            .collect();
+                    draw_curve(&mut chart, &pts, FALLOFF_BAND_RGB, 1)?;
+                }
+            }
         }
         for k in 0..3 {
             let pts: Vec<(f64, f64)> =
