@@ -253,6 +253,32 @@ impl RadialFalloff {
         (s0 > 0.0 && k0.abs() > RADIAL_APPLY.0 * s0) || self.wald_chi2() > RADIAL_APPLY.1
     }
 
+    /// The covariance of κ = (κ₀, κ₁) that stands for the fall-off's uncertainty: the two-term
+    /// fit's when the fall-off was divided out (`applied`); when not, κ₀ = 0 ± its σ fitted
+    /// alone (the strips only bound it), κ₁ = 0.
+    pub fn uncertainty(&self, applied: bool) -> [[f64; 2]; 2] {
+        if applied {
+            self.kappa_covariance
+        } else {
+            [[self.kappa0_alone[1].powi(2), 0.0], [0.0, 0.0]]
+        }
+    }
+
+    /// 1σ of ln V at each profile position from [`RadialFalloff::uncertainty`]
+    /// (∂ ln V/∂κ = (Q, Q²/2)).
+    pub fn ln_v_sigma(&self, applied: bool) -> Vec<f64> {
+        let k = self.uncertainty(applied);
+        self.q_along
+            .iter()
+            .map(|&q| {
+                let d = [q, 0.5 * q * q];
+                let v = d[0] * (k[0][0] * d[0] + k[0][1] * d[1])
+                    + d[1] * (k[1][0] * d[0] + k[1][1] * d[1]);
+                v.max(0.0).sqrt()
+            })
+            .collect()
+    }
+
     /// The Wald statistic κᵀΣ⁻¹κ of the two-term κ against no fall-off (Σ its covariance; over
     /// κ₀ alone when the strips do not determine κ₁). 0 when Σ is singular.
     pub fn wald_chi2(&self) -> f64 {

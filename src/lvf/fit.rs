@@ -1389,7 +1389,7 @@ pub fn calibrate_whole_profile(
     };
     let (cov_theta, sigma_radial) = match (&radial_g, &radial) {
         (Some(g), Some(r)) => {
-            let kc = radial_kappa_covariance(r, radial_applied);
+            let kc = r.uncertainty(radial_applied);
             let k = DMatrix::from_fn(2, 2, |i, j| kc[i][j]);
             let add = g * k * g.transpose();
             let s = sigma_compare(&add);
@@ -1522,21 +1522,7 @@ pub fn calibrate_whole_profile(
         background: background_curve,
         falloff: fall.clone(),
         falloff_sigma: match (&radial, fixed) {
-            (Some(r), None) if r.q_along.len() == n => {
-                let k = radial_kappa_covariance(r, radial_applied);
-                r.q_along
-                    .iter()
-                    .map(|&q| {
-                        let d = [q, 0.5 * q * q];
-                        (0..2)
-                            .flat_map(|i| (0..2).map(move |j| (i, j)))
-                            .map(|(i, j)| d[i] * k[i][j] * d[j])
-                            .sum::<f64>()
-                            .max(0.0)
-                            .sqrt()
-                    })
-                    .collect()
-            }
+            (Some(r), None) if r.q_along.len() == n => r.ln_v_sigma(radial_applied),
             _ => Vec::new(),
         },
     };
@@ -1645,7 +1631,7 @@ pub fn calibrate_whole_profile(
         black_clipping: profile.censoring.clone(),
         sigma_includes_systematic: selection_rule == "bic",
         systematic_note: if selection_rule == "bic" {
-            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it, and it includes the uncertainty of the radial fall-off divided out (diagnostics.statistical_sigma.radial_falloff_nm_at_400_700); the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to every other continuum when a continuum was chosen (with a shared continuum spectrum through --camera: every candidate within ΔBIC ≤ 100) (model-choice uncertainty; background.candidates lists every candidate's λ there), and how far the map moves when a listed line the other lines put elsewhere is freed (diagnostics.displaced_lines); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
+            "sigma_nm_at_400/700 = √(statistical² + systematic²); the statistical part is the sandwich covariance (JᵀJ)⁻¹B(JᵀJ)⁻¹ with a heteroscedasticity- and autocorrelation-consistent B (Newey–West, bandwidth diagnostics.statistical_sigma.hac_bandwidth_lags), so noise that grows with the signal and a smooth misfit correlated along the profile widen it, and it includes the uncertainty of the radial fall-off estimated from the strips, divided out or bounded (diagnostics.statistical_sigma.radial_falloff_nm_at_400_700 and its note); the systematic part is the largest difference at that position to another background model within ΔBIC ≤ 10, or to every other continuum when a continuum was chosen (with a shared continuum spectrum through --camera: every candidate within ΔBIC ≤ 100) (model-choice uncertainty; background.candidates lists every candidate's λ there), and how far the map moves when a listed line the other lines put elsewhere is freed (diagnostics.displaced_lines); a fall-off the strips cannot see (tilt, off-centre; not identified by the profile, only a flat field measures it) and errors common to all candidates (passband shape, line list) are not included".into()
         } else {
             "sigma_nm_at_400/700 are statistical only (the sandwich covariance with a heteroscedasticity- and autocorrelation-consistent middle, Newey–West; one background model was requested, so there is no model-choice spread)".into()
         },
@@ -1705,7 +1691,11 @@ pub fn calibrate_whole_profile(
                 "homoscedastic_nm_at_400_700": sigma_homoscedastic,
                 "correlation_length_scaled_nm_at_400_700": sigma_tau,
                 "radial_falloff_nm_at_400_700": sigma_radial,
-                "radial_falloff_note": if radial_applied { "included: the uncertainty of the radial fall-off divided out (κ's cluster-robust covariance) propagated to λ by linear response" } else { "included: no fall-off was divided out (not significant), but the strips bound it only to κ₀ = 0 ± its σ fitted alone; that uncertainty propagated to λ by linear response" },
+                "radial_falloff_note": match (sigma_radial.is_some(), radial_applied) {
+                    (true, true) => "included: the uncertainty of the radial fall-off divided out (κ's cluster-robust covariance) propagated to λ by linear response",
+                    (true, false) => "included: no fall-off was divided out (not significant), but the strips bound it only to κ₀ = 0 ± its σ fitted alone; that uncertainty propagated to λ by linear response",
+                    (false, _) => "not included: no radial estimate from the strips (a flat field was given, --no-radial-falloff, the ROI has no strips across the axis, or the sensitivity was singular)",
+                },
             },
         }),
         curves,
@@ -2222,20 +2212,6 @@ pub(crate) fn profile_noise(values: &[f64]) -> f64 {
 /// their whole spread is kept as the estimate of that systematic (ΔBIC ≤ 100 alone covered 88 %
 /// of the CFL pairs there and failed `tests/lvf_sigma_coverage.rs`).
 const MODEL_CHOICE_DELTA_BIC: f64 = 100.0;
-
-/// The covariance of κ = (κ₀, κ₁) that stands for the fall-off's uncertainty: the two-term
-/// fit's when the fall-off was divided out; when not, κ₀ = 0 ± its σ fitted alone (the strips
-/// only bound it), κ₁ = 0.
-fn radial_kappa_covariance(
-    r: &crate::lvf::background::RadialFalloff,
-    applied: bool,
-) -> [[f64; 2]; 2] {
-    if applied {
-        r.kappa_covariance
-    } else {
-        [[r.kappa0_alone[1].powi(2), 0.0], [0.0, 0.0]]
-    }
-}
 
 /// dθ/dκ of the fit at θ for the radial fall-off's κ = (κ₀, κ₁) (p × 2, p = the Jacobian's
 /// columns): the residual's change when ln V moves by ε·∂ln V/∂κ_k (central differences, the

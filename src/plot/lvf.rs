@@ -95,9 +95,15 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
         draw_text(&root, &t, (w as i32 / 2, TITLE_H / 2 - 10), style)?;
         let legend = match &cal.background {
             Some(b) => format!(
-                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak ({}{}) · {} warning(s){}",
+                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak{} ({}) · {} warning(s){}",
                 b.model,
                 100.0 * b.continuum_peak_relative,
+                // before the source, which the width may cut
+                if c.falloff_sigma.is_empty() {
+                    ""
+                } else {
+                    ", ± 1σ thin light grey"
+                },
                 if c.falloff.iter().any(|v| *v != 1.0) {
                     format!(
                         "{}, V at the ends {:.3} / {:.3}",
@@ -108,11 +114,6 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                     )
                 } else {
                     "none applied".to_string()
-                },
-                if c.falloff_sigma.is_empty() {
-                    ""
-                } else {
-                    "; thin light grey: ± 1σ of the strips' estimate"
                 },
                 cal.warnings.len(),
                 cal.warnings.first().map(|w| format!(": {w}")).unwrap_or_default()

@@ -128,10 +128,10 @@ pub struct CalibrateArgs {
     /// the noise; with several, BIC and then the focused criterion choose.
     #[arg(long, value_delimiter = ',', default_value = "0.35")]
     pub shared_knots: Vec<f64>,
-    /// With --camera: prior roughness values of the shared spectrum's candidates — its second
-    /// differences at the knots are taken as about this fraction of its RMS, so the penalty grows
-    /// with the noise; BIC and then the focused criterion choose; 0: no penalty (the knot spacing
-    /// alone limits the spectrum).
+    /// With --camera: prior roughness values of the shared spectrum's candidates (0–10 each) —
+    /// its second differences at the knots are taken as about this fraction of its RMS, so the
+    /// penalty grows with the noise; BIC and then the focused criterion choose; 0: no penalty
+    /// (the knot spacing alone limits the spectrum).
     #[arg(long, value_delimiter = ',', default_value = "0.01,0.03")]
     pub shared_smoothness: Vec<f64>,
     /// Flat-field photo through the LVF (broadband source, same size and framing): its smooth
