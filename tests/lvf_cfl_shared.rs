@@ -118,8 +118,9 @@ fn lvf_calibrate_with_camera_reports_the_shared_spectrum_in_lvf_json() {
     let db = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/data/camera/jiang2013_camspec_all_cameras_long.csv");
     let cam = format!("{}:Nikon D700", db.display());
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/tmp-lvf-cfl-shared-cli");
-    std::fs::create_dir_all(&dir).unwrap();
+    // a directory of this run's own: a fixed one is shared by concurrent runs of the test
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
     let (img, truth, out) = (
         dir.join("cfl.tiff"),
         dir.join("t.json"),
@@ -184,7 +185,6 @@ fn lvf_calibrate_with_camera_reports_the_shared_spectrum_in_lvf_json() {
         .as_str()
         .unwrap()
         .ends_with("Nikon D700"));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The focused information criterion (`lvf::fit`, `focused_refinement`), with the shared

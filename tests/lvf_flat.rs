@@ -31,8 +31,11 @@ fn run(args: &[&str]) -> std::process::Output {
         .expect("run lumifit")
 }
 
+/// A scratch directory of this process's own (a fixed name is shared by concurrent runs of the
+/// test binary, which then remove each other's files).
 fn scratch(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("lvf_flat_{name}"));
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("lvf_flat_{name}_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("scratch dir");
     d
