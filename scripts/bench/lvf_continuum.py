@@ -2,6 +2,7 @@
 
     cargo build --release
     python3 scripts/bench/lvf_continuum.py [--seeds 3] [--cases all|quick|11,12,…] [--background auto] [--shared]
+        [--lumifit PATH]   (a copy of the binary, so that a rebuild during the run does not change it)
 
 Geometry of docs/performance.md / issue 12: 1200x160 px, 372.3 nm + 0.3117 nm/px, Gaussian
 passband FWHM 25 nm. Images from `lumifit synth lvf-hg` (lines integrated over each pixel's span),
@@ -50,6 +51,11 @@ def run(args):
     return subprocess.run([LUMIFIT, *args], check=False, capture_output=True, text=True)
 
 
+def set_binary(path):
+    global LUMIFIT
+    LUMIFIT = path
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=3)
@@ -59,7 +65,9 @@ def main():
     ap.add_argument("--shared", action="store_true",
                     help="pass the rendering camera to lvf calibrate (--camera): shared continuum spectrum")
     ap.add_argument("--knots", default=None, help="--continuum-knots of lvf calibrate, e.g. 2.5,1.5")
+    ap.add_argument("--lumifit", default=LUMIFIT, help="the lumifit binary (default target/release/lumifit)")
     a = ap.parse_args()
+    set_binary(a.lumifit)
     cases = CASES if a.cases == "all" else [CASES[int(i)] for i in (QUICK if a.cases == "quick" else a.cases.split(","))]
     cams = a.cameras.split(",")
     print("| image | camera | mean abs err 400 / 700 nm | max abs err | reported σ 400 / 700 | background chosen | old model (linear offset, no fall-off) mean 400 / 700 | failures |")
