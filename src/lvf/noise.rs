@@ -33,6 +33,9 @@ const SEEN_RELATIVE: f64 = 1e-5;
 /// The read-noise term is floored at this fraction of the largest variance: a weight may not
 /// grow without bound where the estimate of `a` is near zero.
 const READ_FLOOR: f64 = 0.02;
+/// Passes of the fit of `a + b·μ` to the bins: the first weighted by each bin's own estimate,
+/// the others by the previous pass's line.
+const ESTIMATE_PASSES: usize = 3;
 
 /// The profile's noise model `var(y) = a + b·max(y, 0)`.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -94,27 +97,37 @@ pub fn estimate(values: [&[f64]; 3]) -> Option<NoiseModel> {
         return None;
     }
     // Weighted least squares of v = a + b·μ: an estimate from m samples has variance ≈ 2v²/m
-    // (the median's efficiency aside); the weights use the bin's own estimate, floored.
-    let (mut s00, mut s01, mut s11, mut t0, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for &(mu, v, m) in &bins {
-        let w = m as f64 / v.max(1e-3 * vmax).powi(2);
-        let mu = mu.max(0.0);
-        s00 += w;
-        s01 += w * mu;
-        s11 += w * mu * mu;
-        t0 += w * v;
-        t1 += w * mu * v;
-    }
-    let det = s00 * s11 - s01 * s01;
-    let (mut a, mut b) = if det > 1e-12 * s00 * s11 {
-        ((s11 * t0 - s01 * t1) / det, (s00 * t1 - s01 * t0) / det)
-    } else {
-        (t0 / s00, 0.0)
-    };
-    if b < 0.0 {
-        // the level does not raise the noise: homoscedastic
-        b = 0.0;
-        a = t0 / s00;
+    // (the median's efficiency aside). The first pass weighs each bin by its own estimate,
+    // floored; that favours the bins whose estimate came out low and took b 6–8 % low on
+    // average (40 draws of the unit test's profile: 0.936 ± 0.15 of the truth); the passes after
+    // weigh by the fitted line instead (0.994 ± 0.15).
+    let floor = 1e-3 * vmax;
+    let mut line: Option<(f64, f64)> = None;
+    let (mut a, mut b) = (0.0, 0.0);
+    for _ in 0..ESTIMATE_PASSES {
+        let (mut s00, mut s01, mut s11, mut t0, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(mu, v, m) in &bins {
+            let mu = mu.max(0.0);
+            let var = line.map_or(v, |(la, lb)| la + lb * mu).max(floor);
+            let w = m as f64 / var.powi(2);
+            s00 += w;
+            s01 += w * mu;
+            s11 += w * mu * mu;
+            t0 += w * v;
+            t1 += w * mu * v;
+        }
+        let det = s00 * s11 - s01 * s01;
+        (a, b) = if det > 1e-12 * s00 * s11 {
+            ((s11 * t0 - s01 * t1) / det, (s00 * t1 - s01 * t0) / det)
+        } else {
+            (t0 / s00, 0.0)
+        };
+        if b < 0.0 {
+            // the level does not raise the noise: homoscedastic
+            b = 0.0;
+            a = t0 / s00;
+        }
+        line = Some((a, b));
     }
     a = a.max(READ_FLOOR * vmax);
     let model = NoiseModel {
@@ -180,13 +193,30 @@ mod tests {
         let (a, b) = (1e-7, 2e-6);
         let p = profile(a, b, 3);
         let m = estimate([&p[0], &p[1], &p[2]]).unwrap();
-        // measured −21 % on this profile: the estimate of b runs low (the binned medians of a
-        // level-dependent variance); the weights only need its order of magnitude
+        // one draw scatters by ≈ 15 % (the mean over draws is the next test's)
         assert!((m.shot_gain / b - 1.0).abs() < 0.3, "{m:?}");
         assert!((m.read_variance / a - 1.0).abs() < 0.5, "{m:?}");
         let w = weights(&m, [&p[0], &p[1], &p[2]]);
         // the peak of channel 0 (x = 300) weighs less than the dark flank
         assert!(w[0][300] < 0.5 * w[0][50], "{} {}", w[0][300], w[0][50]);
+    }
+
+    #[test]
+    fn the_shot_gain_is_unbiased_over_draws() {
+        let (a, b) = (1e-7, 2e-6);
+        let n = 40;
+        let ratios: Vec<f64> = (1..=n)
+            .map(|seed| {
+                let p = profile(a, b, seed);
+                estimate([&p[0], &p[1], &p[2]]).unwrap().shot_gain / b
+            })
+            .collect();
+        let mean = ratios.iter().sum::<f64>() / n as f64;
+        let sd = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        // the standard error of the mean is sd/√40 ≈ 0.024; weighting the bins by their own
+        // estimates alone (one pass) gave a mean 6–8 % low
+        assert!((mean - 1.0).abs() < 0.05, "mean {mean}, sd {sd}");
+        assert!(sd < 0.25, "mean {mean}, sd {sd}");
     }
 
     #[test]
