@@ -275,6 +275,16 @@ fn without_the_camera_a_biased_spline_in_u_gives_way_to_the_passband_continuum()
         e[0].abs().max(e[1].abs()) <= CFL_5PCT_NO_CAMERA_BOUND_NM,
         "{e:?}"
     );
+    // σ here is far above 0.3 nm: the user is told why and what would narrow it
+    let hint = cal
+        .warnings
+        .iter()
+        .find(|w| w.starts_with("σ at 400 / 700 nm is"))
+        .unwrap_or_else(|| panic!("no σ hint: {:?}", cal.warnings));
+    assert!(
+        hint.contains("--camera") && hint.contains("mercury lamp") && hint.contains(&bg.model),
+        "{hint}"
+    );
 }
 
 /// The default with `--camera`: one shared spectrum on knots 0.35 FWHM apart, smoothed by a
@@ -305,6 +315,13 @@ fn the_penalised_shared_spectrum_meets_the_cfl_bounds_at_1_and_5_percent_noise()
             bg.model
         );
         assert!(bg.model.starts_with("shared-spectrum"), "{}", bg.model);
+        assert!(
+            !cal.warnings
+                .iter()
+                .any(|w| w.starts_with("σ at 400 / 700 nm is")),
+            "the hint is for fits without the camera: {:?}",
+            cal.warnings
+        );
         assert_eq!(nm["weighted"], true, "{nm}");
         assert!(nm["shot_gain"].as_f64().unwrap() > 0.0, "{nm}");
         assert!(e[0].abs() <= bound && e[1].abs() <= bound, "{noise}: {e:?}");

@@ -1827,11 +1827,39 @@ pub fn calibrate_whole_profile(
         }
         cal.diagnostics["displaced_lines"] = serde_json::json!(report);
     }
+    // Without the camera's curves a continuum is drawn per channel, and its freedom (or its
+    // bias, as the model-choice systematic) can dominate σ: say so, and what would narrow it.
+    cal.set_bands(opts.n_bands)?;
+    let sigma_ends = [cal.sigma_nm_at_400, cal.sigma_nm_at_700];
+    if opts.camera.is_none()
+        && pr.terms.has_continuum()
+        && sigma_ends.iter().any(|s| *s > CONTINUUM_SIGMA_HINT_NM)
+    {
+        cal.warnings.push(format!(
+            "σ at 400 / 700 nm is {:.2} / {:.2} nm (statistical {:.2} / {:.2}, model choice {:.2} / {:.2}): the continuum under the lines ({}) is drawn per channel without the camera's curves and trades with the lines; give the camera's sensitivities (--camera) so that one continuum spectrum is shared by the three channels{}",
+            cal.sigma_nm_at_400,
+            cal.sigma_nm_at_700,
+            cal.sigma_statistical_nm_at_400,
+            cal.sigma_statistical_nm_at_700,
+            cal.sigma_systematic_nm_at_400,
+            cal.sigma_systematic_nm_at_700,
+            pr.terms.name(),
+            if lamp.name.starts_with("hg") {
+                ""
+            } else {
+                ", or calibrate with a mercury lamp (few strong lines over a weak continuum)"
+            }
+        ));
+    }
     report_identifications(&mut cal, &per_start, fwhm);
     cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;
     Ok(cal)
 }
+
+/// Without `--camera`, a continuum model whose σ at 400 or 700 nm exceeds this (nm; issue 12's
+/// bound for a CFL at 1 % noise) draws a warning naming what would narrow it.
+const CONTINUUM_SIGMA_HINT_NM: f64 = 0.3;
 
 /// Grid step of the search for a line group's shift, in FWHM (±½ FWHM in 21 steps).
 const LINE_SHIFT_GRID_FWHM: f64 = 0.05;
