@@ -245,3 +245,32 @@ fn calibrate_on_a_non_lamp_frame_or_the_wrong_lamp_is_refused_or_warned() {
         eprintln!("{img} --lamp {lamp}: exit {:?}: {err}", o.status.code());
     }
 }
+
+/// The defaults `--help` shows for the continuum lists are the library's constants (they are
+/// written twice: as clap default strings and as `FitOptions::default()`'s).
+#[test]
+fn the_help_defaults_of_the_continuum_lists_are_the_library_constants() {
+    let o = lumifit(&["lvf", "calibrate", "--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let help = String::from_utf8_lossy(&o.stdout).to_string();
+    // the `[default: …]` after a flag's name
+    let default_of = |flag: &str| -> Vec<f64> {
+        let at = help
+            .find(&format!("--{flag} <"))
+            .unwrap_or_else(|| panic!("--{flag} not in --help"));
+        let rest = &help[at..];
+        let d = rest.find("[default: ").expect("a default") + "[default: ".len();
+        let end = rest[d..].find(']').unwrap();
+        rest[d..d + end]
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect()
+    };
+    use lumifit::lvf::background::CONTINUUM_KNOT_FWHM;
+    use lumifit::lvf::shared_continuum::{SHARED_KNOT_FWHM, SHARED_SMOOTHNESS};
+    assert_eq!(default_of("continuum-knots"), CONTINUUM_KNOT_FWHM.to_vec());
+    assert_eq!(default_of("shared-knots"), SHARED_KNOT_FWHM.to_vec());
+    assert_eq!(default_of("shared-smoothness"), SHARED_SMOOTHNESS.to_vec());
+    let defaults = lumifit::lvf::FitOptions::default();
+    assert_eq!(defaults.shared_smoothness, SHARED_SMOOTHNESS.to_vec());
+}
