@@ -327,3 +327,36 @@ fn the_penalised_shared_spectrum_meets_the_cfl_bounds_at_1_and_5_percent_noise()
         assert!(e[0].abs() <= bound && e[1].abs() <= bound, "{noise}: {e:?}");
     }
 }
+
+/// A CFL under its phosphor continuum with quadratic vignetting 0.3, noise-free, without the
+/// camera: the lines are where the list says, so none is reported displaced. The check used to
+/// run in the best spline-in-u fit even when the data rejected it (26,800 BIC worse than the
+/// passband continuum chosen): its misfit moved 436 and 405/408 nm by 0.6 and 3 nm when freed,
+/// two false warnings, and σ at 700 nm grew to 1.77 nm for an error of 0.08.
+#[test]
+fn a_noise_free_cfl_under_its_continuum_reports_no_displaced_line() {
+    let Some(db) = database() else { return };
+    let mut s = spec(camera(&db, CAMERAS[0]), ContinuumShape::Cfl, 0.3, 1);
+    s.noise = 0.0;
+    let (cal, e) = calibrated(&s, &FitOptions::default());
+    eprintln!(
+        "{}, noise-free, no camera: {:+.3} / {:+.3} nm, σ {:.3} / {:.3} (systematic {:.3} / {:.3}), warnings {:?}",
+        CAMERAS[0],
+        e[0],
+        e[1],
+        cal.sigma_nm_at_400,
+        cal.sigma_nm_at_700,
+        cal.sigma_systematic_nm_at_400,
+        cal.sigma_systematic_nm_at_700,
+        cal.warnings
+    );
+    let displaced: Vec<&String> = cal
+        .warnings
+        .iter()
+        .filter(|w| w.contains("is not where the other lines put it"))
+        .collect();
+    assert!(displaced.is_empty(), "{displaced:?}");
+    let report = cal.diagnostics["displaced_lines"].as_array().unwrap();
+    assert!(report.iter().all(|d| d["warned"] == false), "{report:?}");
+    assert!(e[0].abs().max(e[1].abs()) <= CFL_ISSUE_BOUND_NM, "{e:?}");
+}
