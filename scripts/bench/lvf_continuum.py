@@ -3,6 +3,7 @@
     cargo build --release
     python3 scripts/bench/lvf_continuum.py [--seeds 3] [--cases all|quick|11,12,…] [--background auto] [--shared]
         [--lumifit PATH]   (a copy of the binary, so that a rebuild during the run does not change it)
+        [--per-seed]       (each seed's signed error, statistical σ and model)
 
 Geometry of docs/performance.md / issue 12: 1200x160 px, 372.3 nm + 0.3117 nm/px, Gaussian
 passband FWHM 25 nm. Images from `lumifit synth lvf-hg` (lines integrated over each pixel's span),
@@ -51,12 +52,8 @@ def run(args):
     return subprocess.run([LUMIFIT, *args], check=False, capture_output=True, text=True)
 
 
-def set_binary(path):
-    global LUMIFIT
-    LUMIFIT = path
-
-
 def main():
+    global LUMIFIT
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--cases", default="all")
@@ -66,8 +63,10 @@ def main():
                     help="pass the rendering camera to lvf calibrate (--camera): shared continuum spectrum")
     ap.add_argument("--knots", default=None, help="--continuum-knots of lvf calibrate, e.g. 2.5,1.5")
     ap.add_argument("--lumifit", default=LUMIFIT, help="the lumifit binary (default target/release/lumifit)")
+    ap.add_argument("--per-seed", action="store_true",
+                    help="also print each seed's signed error, statistical σ at 400 / 700 nm and model")
     a = ap.parse_args()
-    set_binary(a.lumifit)
+    LUMIFIT = a.lumifit
     cases = CASES if a.cases == "all" else [CASES[int(i)] for i in (QUICK if a.cases == "quick" else a.cases.split(","))]
     cams = a.cameras.split(",")
     print("| image | camera | mean abs err 400 / 700 nm | max abs err | reported σ 400 / 700 | background chosen | old model (linear offset, no fall-off) mean 400 / 700 | failures |")
@@ -98,6 +97,10 @@ def main():
                     c = cal["map"]["coefficients"]
                     lam = lambda px: sum(ci * px**i for i, ci in enumerate(c))
                     errs.append((abs(lam(t["px_at_400"]) - 400), abs(lam(t["px_at_700"]) - 700)))
+                    if a.per_seed:
+                        print(f"  {cam} seed {seed}: {lam(t['px_at_400']) - 400:+.3f} / {lam(t['px_at_700']) - 700:+.3f} nm, "
+                              f"statistical σ {cal['sigma_statistical_nm_at_400']:.3f} / "
+                              f"{cal['sigma_statistical_nm_at_700']:.3f}, {cal['background']['model']}", flush=True)
                     sig.append((cal["sigma_nm_at_400"], cal["sigma_nm_at_700"]))
                     models.append(cal["background"]["model"])
                     if cal.get("unexplained_lines"):

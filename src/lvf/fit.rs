@@ -1834,9 +1834,11 @@ pub fn calibrate_whole_profile(
         }
         cal.diagnostics["displaced_lines"] = serde_json::json!(report);
     }
+    report_identifications(&mut cal, &per_start, fwhm);
+    cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
+    cal.set_bands(opts.n_bands)?;
     // Without the camera's curves a continuum is drawn per channel, and its freedom (or its
     // bias, as the model-choice systematic) can dominate σ: say so, and what would narrow it.
-    cal.set_bands(opts.n_bands)?;
     let sigma_ends = [cal.sigma_nm_at_400, cal.sigma_nm_at_700];
     if opts.camera.is_none()
         && pr.terms.has_continuum()
@@ -1858,9 +1860,6 @@ pub fn calibrate_whole_profile(
             }
         ));
     }
-    report_identifications(&mut cal, &per_start, fwhm);
-    cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
-    cal.set_bands(opts.n_bands)?;
     Ok(cal)
 }
 

@@ -102,13 +102,12 @@ pub fn estimate(values: [&[f64]; 3]) -> Option<NoiseModel> {
     // average (40 draws of the unit test's profile: 0.936 ± 0.15 of the truth); the passes after
     // weigh by the fitted line instead (0.994 ± 0.15).
     let floor = 1e-3 * vmax;
-    let mut line: Option<(f64, f64)> = None;
     let (mut a, mut b) = (0.0, 0.0);
-    for _ in 0..ESTIMATE_PASSES {
+    for pass in 0..ESTIMATE_PASSES {
         let (mut s00, mut s01, mut s11, mut t0, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for &(mu, v, m) in &bins {
             let mu = mu.max(0.0);
-            let var = line.map_or(v, |(la, lb)| la + lb * mu).max(floor);
+            let var = if pass == 0 { v } else { a + b * mu }.max(floor);
             let w = m as f64 / var.powi(2);
             s00 += w;
             s01 += w * mu;
@@ -127,7 +126,6 @@ pub fn estimate(values: [&[f64]; 3]) -> Option<NoiseModel> {
             b = 0.0;
             a = t0 / s00;
         }
-        line = Some((a, b));
     }
     a = a.max(READ_FLOOR * vmax);
     let model = NoiseModel {
