@@ -226,6 +226,29 @@ impl Default for FitOptions {
     }
 }
 
+/// A channel's least-squares rows on the scale of the residuals: Φ's rows and y times the
+/// channel's weights `w` (one per sample; empty: unweighted, Φ borrowed and y copied). One
+/// place for the weighting of [`Problem::eval_with`] and the shared continuum's joint solve.
+pub(crate) fn weighted_rows<'p>(
+    phi: &'p DMatrix<f64>,
+    y: &[f64],
+    w: &[f64],
+) -> (std::borrow::Cow<'p, DMatrix<f64>>, DVector<f64>) {
+    if w.is_empty() {
+        return (
+            std::borrow::Cow::Borrowed(phi),
+            DVector::from_column_slice(y),
+        );
+    }
+    let wi = |i: usize| w.get(i).copied().unwrap_or(1.0);
+    let mut pw = phi.clone();
+    for (i, mut row) in pw.row_iter_mut().enumerate() {
+        row *= wi(i);
+    }
+    let yw = DVector::from_fn(y.len(), |i, _| wi(i) * y[i]);
+    (std::borrow::Cow::Owned(pw), yw)
+}
+
 /// Lawson–Hanson NNLS on normal equations G x = h, with the first `n_free` variables
 /// unconstrained. Columns with zero norm stay at zero.
 pub(crate) fn nnls_gram(g: &DMatrix<f64>, h: &DVector<f64>, n_free: usize) -> DVector<f64> {
@@ -599,19 +622,7 @@ impl<'a> Problem<'a> {
         let mut n_active = 0;
         let alpha: [DVector<f64>; 3] = std::array::from_fn(|c| {
             // weighted: rows of Φ and y times the channel's weights, a Gram per channel
-            let (phi_c, y) = if unweighted {
-                (
-                    std::borrow::Cow::Borrowed(&phi),
-                    DVector::from_column_slice(self.y[c]),
-                )
-            } else {
-                let mut pw = phi.clone();
-                for (i, mut row) in pw.row_iter_mut().enumerate() {
-                    row *= self.weight(c, i);
-                }
-                let y = DVector::from_fn(n, |i, _| self.weight(c, i) * self.y[c][i]);
-                (std::borrow::Cow::Owned(pw), y)
-            };
+            let (phi_c, y) = weighted_rows(&phi, self.y[c], &self.w[c]);
             let h = phi_c.transpose() * &y;
             let a = match &g {
                 Some(g) => nnls_gram(g, &h, N_BG),
@@ -1853,7 +1864,7 @@ pub fn calibrate_whole_profile(
             cal.sigma_systematic_nm_at_400,
             cal.sigma_systematic_nm_at_700,
             pr.terms.name(),
-            if lamp.name.starts_with("hg") {
+            if lamp.is_mercury() {
                 ""
             } else {
                 ", or calibrate with a mercury lamp (few strong lines over a weak continuum)"

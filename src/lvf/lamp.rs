@@ -62,6 +62,17 @@ const HG: &[(f64, f64)] = &[
     (579.066, 0.22),
 ];
 
+/// Hg I lines of a low-pressure mercury lamp from the near UV to the near IR (NIST Atomic
+/// Spectra Database, air wavelengths), for [`Lamp::is_mercury`].
+pub const MERCURY_LINES_NM: &[f64] = &[
+    365.015, 365.484, 366.328, 404.656, 407.783, 433.922, 434.750, 435.833, 491.604, 496.026,
+    546.074, 567.581, 576.960, 579.066, 585.925, 623.437, 671.634, 690.746, 708.190, 1013.975,
+];
+
+/// A listed line within this of a mercury line counts as that line (nm; lamp tables round to
+/// 0.1 nm, some to 1 nm).
+pub const MERCURY_MATCH_NM: f64 = 0.6;
+
 const CFL_PHOSPHOR: &[(f64, f64)] = &[
     (487.7, 0.30),
     (542.4, 1.00),
@@ -119,6 +130,19 @@ impl Lamp {
         )
     }
 
+    /// Whether every listed line is a mercury line ([`MERCURY_LINES_NM`], within
+    /// [`MERCURY_MATCH_NM`]): a mercury lamp's few strong lines stand over a weak continuum, unlike
+    /// a CFL's phosphor bands. Judged by the lines, not the lamp's name (a file `my_hg.csv`
+    /// listing 365, 405, 436, 546, 577 and 579 nm is mercury).
+    pub fn is_mercury(&self) -> bool {
+        !self.lines.is_empty()
+            && self.lines.iter().all(|l| {
+                MERCURY_LINES_NM
+                    .iter()
+                    .any(|m| (l.nm - m).abs() <= MERCURY_MATCH_NM)
+            })
+    }
+
     /// A lamp from a table whose first column is the wavelength in nm and whose optional second
     /// column is the relative power (default 1).
     ///
@@ -148,5 +172,31 @@ impl Lamp {
             return Err(Error::parse(&table.source, 0, "no lines listed"));
         }
         Ok(Self::from_pairs(&table.source, pairs.into_iter()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lamp(name: &str, nm: &[f64]) -> Lamp {
+        Lamp::from_pairs(name, nm.iter().map(|&n| (n, 1.0)))
+    }
+
+    #[test]
+    fn mercury_is_judged_by_the_lines_not_the_name() {
+        assert!(Lamp::mercury().is_mercury());
+        assert!(Lamp::mercury_weak_violet().is_mercury());
+        assert!(!Lamp::cfl().is_mercury());
+        // a mercury table under another name, rounded to 0.1 nm, with the UV triplet
+        assert!(lamp(
+            "lamps/my_lamp.csv",
+            &[365.0, 404.7, 435.8, 546.1, 577.0, 579.1]
+        )
+        .is_mercury());
+        // a table named like mercury that lists a phosphor line
+        assert!(!lamp("hg_plus.csv", &[404.7, 435.8, 546.1, 611.6]).is_mercury());
+        // neon is not mercury
+        assert!(!lamp("ne.csv", &[585.249, 640.225, 703.241]).is_mercury());
     }
 }

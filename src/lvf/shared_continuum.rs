@@ -309,17 +309,12 @@ pub(crate) fn solve_joint(
     let mut h = DVector::zeros(total);
     for c in 0..3 {
         let w = |i: usize| weights[c].get(i).copied().unwrap_or(1.0);
-        let phi_w;
-        let (phi, ptp) = match &ptp_plain {
-            Some(p) => (phi, std::borrow::Cow::Borrowed(p)),
-            None => {
-                phi_w = DMatrix::from_fn(n, m, |i, j| w(i) * phi[(i, j)]);
-                let p = phi_w.transpose() * &phi_w;
-                (&phi_w, std::borrow::Cow::Owned(p))
-            }
+        let (phi, yc) = crate::lvf::fit::weighted_rows(phi, y[c], &weights[c]);
+        let ptp = match &ptp_plain {
+            Some(p) => std::borrow::Cow::Borrowed(p),
+            None => std::borrow::Cow::Owned(phi.transpose() * phi.as_ref()),
         };
         let s = DMatrix::from_fn(n, nk, |i, k| w(i) * cols[(c * n + i) * nk + k]);
-        let yc = DVector::from_fn(n, |i, _| w(i) * y[c][i]);
         let pts = phi.transpose() * &s;
         let sts = s.transpose() * &s;
         let pty = phi.transpose() * &yc;
