@@ -145,7 +145,9 @@ pub struct CalibrateArgs {
     /// The camera's sensitivities (CSV wavelength_nm,r,g,b, DB.csv:NAME of the Jiang
     /// database, or Academy spectral-data JSON as in rawtoaces-data): adds a continuum spectrum shared by the three channels to the candidates
     /// (the image must be linear raw, channels as in the table), and is the camera
-    /// --flat-spectrum is seen through.
+    /// --flat-spectrum is seen through. Give the image's own camera: σ assumes its curves, and
+    /// at 5 % noise another camera's curves can move the map by ≈ 1 nm without raising σ (at
+    /// 1 % BIC rejects them; a camera with the same sensor calibrates as well).
     #[arg(long)]
     pub camera: Option<PathBuf>,
 }
