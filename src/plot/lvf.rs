@@ -17,6 +17,8 @@ use crate::lvf::LvfCalibration;
 
 const SIZE_PX: (u32, u32) = (1400, 900);
 const TITLE_H: i32 = 60;
+/// Height of each legend line under the title (px).
+const LEGEND_LINE_H: i32 = 20;
 const CHANNEL_RGB: [[u8; 3]; 3] = [[200, 40, 40], [30, 150, 60], [40, 80, 210]];
 const MODEL_RGB: [[u8; 3]; 3] = [[110, 10, 10], [10, 80, 25], [10, 30, 120]];
 const BACKGROUND_RGB: [[u8; 3]; 3] = [[240, 150, 150], [140, 210, 150], [150, 170, 240]];
@@ -93,12 +95,13 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
         let style = TextSpec::new(22.0, INK, HPos::Center, VPos::Center);
         let t = fit_text(&root, &title, style.size_px, w - 40)?;
         draw_text(&root, &t, (w as i32 / 2, TITLE_H / 2 - 10), style)?;
+        // two legend lines: what is drawn, then the warnings (each cut to the width on its own,
+        // so that a long warning does not hide the fall-off's numbers)
         let legend = match &cal.background {
             Some(b) => format!(
-                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak{} ({}) · {} warning(s){}",
+                "thin light: offset + continuum ({}, peak {:.1} % of the profile) · grey: fall-off V × peak{} ({})",
                 b.model,
                 100.0 * b.continuum_peak_relative,
-                // before the source, which the width may cut
                 if c.falloff_sigma.is_empty() {
                     ""
                 } else {
@@ -107,24 +110,40 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                 if c.falloff.iter().any(|v| *v != 1.0) {
                     format!(
                         "{}, V at the ends {:.3} / {:.3}",
-                        // the source without its explanation in parentheses
-                        b.falloff_source.split(" (").next().unwrap_or("modelled"),
+                        // the source without its explanation
+                        b.falloff_source
+                            .split(" (")
+                            .next()
+                            .and_then(|s| s.split(", estimated").next())
+                            .unwrap_or("modelled"),
                         c.falloff.first().copied().unwrap_or(1.0),
                         c.falloff.last().copied().unwrap_or(1.0)
                     )
                 } else {
                     "none applied".to_string()
                 },
-                cal.warnings.len(),
-                cal.warnings.first().map(|w| format!(": {w}")).unwrap_or_default()
             ),
             None => "peak picking: no background model".to_string(),
         };
+        let warnings = match cal.warnings.len() {
+            0 => "no warnings".to_string(),
+            n => format!(
+                "{n} warning(s) (all in lvf.json and on stderr), the first: {}",
+                cal.warnings[0]
+            ),
+        };
         let lstyle = TextSpec::new(15.0, INK, HPos::Center, VPos::Center);
-        let lt = fit_text(&root, &legend, lstyle.size_px, w - 40)?;
-        draw_text(&root, &lt, (w as i32 / 2, TITLE_H - 8), lstyle)?;
-        let (_, body) = root.split_vertically(TITLE_H + 8);
-        let (top, bottom) = body.split_vertically(560);
+        for (k, text) in [legend, warnings].iter().enumerate() {
+            let lt = fit_text(&root, text, lstyle.size_px, w - 40)?;
+            draw_text(
+                &root,
+                &lt,
+                (w as i32 / 2, TITLE_H - 8 + LEGEND_LINE_H * k as i32),
+                lstyle,
+            )?;
+        }
+        let (_, body) = root.split_vertically(TITLE_H + 8 + LEGEND_LINE_H);
+        let (top, bottom) = body.split_vertically(560 - LEGEND_LINE_H);
         let mut chart = spectral_axes(
             &top,
             &AxesSpec {
