@@ -1880,12 +1880,22 @@ pub fn calibrate_whole_profile(
             }));
             if warned {
                 cal.warnings.push(format!(
-                    "lamp line {} nm (with the lines blended with it, centroid {:.2} nm) is not where the other lines put it: freed, it sits at {:.2} ± {:.2} nm (BIC lower by {:.0}); an unlisted line blended with it (closer than the passband separates) or a wrong list entry; the map is kept, and σ at 400/700 nm is widened by how far freeing the line moves it ({:.3} / {:.3} nm); check the lamp list",
+                    "lamp line {} nm (with the lines blended with it, centroid {:.2} nm) is not where the other lines put it: freed, it sits at {:.2} ± {:.2} nm (BIC lower by {:.0}); an unlisted line blended with it (closer than the passband separates) or a wrong list entry{}; the map is kept, and σ at 400/700 nm is widened by how far freeing the line moves it ({:.3} / {:.3} nm); check the lamp list",
                     d.listed_nm.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(" + "),
                     d.centroid_nm,
                     d.fitted_nm,
                     d.sigma_nm,
                     d.delta_bic,
+                    // without the camera a continuum drawn per channel can itself trade with a
+                    // line (5 % CFL draws: 436 and 405/408 nm "displaced" on a correct list)
+                    if opts.camera.is_none() && dpr.terms.has_continuum() {
+                        format!(
+                            ", or the continuum drawn per channel ({}, no --camera) trading with it",
+                            dpr.terms.name()
+                        )
+                    } else {
+                        String::new()
+                    },
                     w[0],
                     w[1]
                 ));
