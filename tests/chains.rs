@@ -14,13 +14,18 @@ fn ok(o: &std::process::Output) {
 
 /// `synth lvf-hg` → `lvf calibrate` in `d`: writes `hg.tiff`, `truth.json` and `lvf.json`.
 fn calibrated_lamp(d: &std::path::Path) {
+    calibrated_lamp_with_truth(d, "truth.json");
+}
+
+/// [`calibrated_lamp`] with the lamp's truth written to `truth` (where `truth.json` is taken).
+fn calibrated_lamp_with_truth(d: &std::path::Path, truth: &str) {
     ok(&lumifit(&[
         "synth",
         "lvf-hg",
         "--out",
         &p(d, "hg.tiff"),
         "--truth",
-        &p(d, "truth.json"),
+        &p(d, truth),
         "--seed",
         "1",
     ]));
@@ -432,27 +437,7 @@ fn an_rgb_decay_preset_reaches_wavelength_bands_through_an_lvf_photo_of_the_glow
     }
     assert!(!d.join("x.json").exists());
     // The advice: the glow through the LVF, recovered, as the decay fit's emission spectrum.
-    ok(&lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--out",
-        &p(d, "hg.tiff"),
-        "--truth",
-        &p(d, "hg_truth.json"),
-        "--seed",
-        "1",
-    ]));
-    ok(&lumifit(&[
-        "lvf",
-        "calibrate",
-        &p(d, "hg.tiff"),
-        "--roi",
-        "0,0,1200,160",
-        "--axis",
-        "x",
-        "--out",
-        &p(d, "lvf.json"),
-    ]));
+    calibrated_lamp_with_truth(d, "hg_truth.json");
     ok(&lumifit(&[
         "synth",
         "lvf-capture",
