@@ -12,6 +12,34 @@ fn ok(o: &std::process::Output) {
     assert!(o.status.success(), "{}", stderr(o));
 }
 
+/// `synth lvf-capture` of `spectrum` through `d/lvf.json` (1200×160, seed 2) to `d/image`, then
+/// `spectrum recover` of it with the same bands to `d/out`.
+fn captured_and_recovered(d: &std::path::Path, spectrum: &str, image: &str, out: &str) {
+    ok(&lumifit(&[
+        "synth",
+        "lvf-capture",
+        "--spectrum",
+        spectrum,
+        "--lvf",
+        &p(d, "lvf.json"),
+        "--size",
+        "1200x160",
+        "--seed",
+        "2",
+        "--out",
+        &p(d, image),
+    ]));
+    ok(&lumifit(&[
+        "spectrum",
+        "recover",
+        &p(d, image),
+        "--bands",
+        &p(d, "lvf.json"),
+        "--out",
+        &p(d, out),
+    ]));
+}
+
 /// `synth lvf-hg` → `lvf calibrate` in `d`: writes `hg.tiff`, `truth.json` and `lvf.json`.
 fn calibrated_lamp(d: &std::path::Path) {
     calibrated_lamp_with_truth(d, "truth.json");
@@ -52,29 +80,7 @@ fn a_recovered_spectrum_feeds_color_xyz() {
         "light.csv",
         "wavelength_nm,value\n380,0.2\n500,0.9\n600,0.5\n780,0.3\n",
     );
-    ok(&lumifit(&[
-        "synth",
-        "lvf-capture",
-        "--spectrum",
-        &p(d, "light.csv"),
-        "--lvf",
-        &p(d, "lvf.json"),
-        "--size",
-        "1200x160",
-        "--seed",
-        "2",
-        "--out",
-        &p(d, "cap.tiff"),
-    ]));
-    ok(&lumifit(&[
-        "spectrum",
-        "recover",
-        &p(d, "cap.tiff"),
-        "--bands",
-        &p(d, "lvf.json"),
-        "--out",
-        &p(d, "rec.csv"),
-    ]));
+    captured_and_recovered(d, &p(d, "light.csv"), "cap.tiff", "rec.csv");
     let rec = std::fs::read_to_string(d.join("rec.csv")).unwrap();
     assert!(
         rec.starts_with("wavelength_nm,value,std"),
@@ -438,29 +444,7 @@ fn an_rgb_decay_preset_reaches_wavelength_bands_through_an_lvf_photo_of_the_glow
     assert!(!d.join("x.json").exists());
     // The advice: the glow through the LVF, recovered, as the decay fit's emission spectrum.
     calibrated_lamp_with_truth(d, "hg_truth.json");
-    ok(&lumifit(&[
-        "synth",
-        "lvf-capture",
-        "--spectrum",
-        &emission,
-        "--lvf",
-        &p(d, "lvf.json"),
-        "--size",
-        "1200x160",
-        "--seed",
-        "2",
-        "--out",
-        &p(d, "glow.tiff"),
-    ]));
-    ok(&lumifit(&[
-        "spectrum",
-        "recover",
-        &p(d, "glow.tiff"),
-        "--bands",
-        &p(d, "lvf.json"),
-        "--out",
-        &p(d, "glow.csv"),
-    ]));
+    captured_and_recovered(d, &emission, "glow.tiff", "glow.csv");
     ok(&lumifit(&[
         "phos",
         "fit-decay",
