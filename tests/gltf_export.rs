@@ -13,6 +13,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::khronos_validator;
 use common::tolerances::gltf_export::*;
 use common::{assert_rejected, lumifit, p, stderr, write};
 use lumifit::colorimetry::rgb::RgbSpace;
@@ -134,28 +135,6 @@ fn presets(dir: &Path) -> Vec<(String, String)> {
         fixture("fixtures/presets/valid_material_wavelength_bands.json"),
     ));
     out
-}
-
-/// Runs the Khronos validator on `files`; `None` (with a SKIPPED message) when node is absent or
-/// `LUMIFIT_SKIP_GLTF_VALIDATOR` is set. Fails when any file has an error.
-fn khronos_validator(files: &[PathBuf]) -> Option<String> {
-    if Command::new("node").arg("--version").output().is_err() {
-        eprintln!("SKIPPED: node is not installed; the Khronos glTF validator did not run");
-        return None;
-    }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
-    let o = Command::new("bash")
-        .arg(script)
-        .args(files)
-        .output()
-        .unwrap();
-    let report = String::from_utf8_lossy(&o.stdout).to_string();
-    assert!(
-        o.status.success(),
-        "validator: {report}{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    Some(report)
 }
 
 #[test]

@@ -5,9 +5,6 @@ mod common;
 
 use common::{assert_rejected, lumifit, p, write};
 
-/// Serialises the runs of `scripts/validate_gltf.sh` within this test binary.
-static VALIDATOR: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
 const LAMBERT_IES: &str = "IES:LM-63-2019\n[TEST] t\nTILT=NONE\n1 -1 1 7 1 1 2 1 1 0\n1 1.00001 0\n0 15 30 45 60 75 90\n0\n1000 965.9258262890683 866.0254037844387 707.1067811865476 500.0000000000001 258.8190451025207 0\n";
 
 #[test]
@@ -400,28 +397,9 @@ fn light_preset_gltf_of_every_type_c_data_file_passes_the_khronos_validator_and_
         }
     }
     assert!(gltfs.len() >= 10, "only {} files exported", gltfs.len());
-    if std::process::Command::new("node")
-        .arg("--version")
-        .output()
-        .is_err()
-    {
-        eprintln!("SKIPPED: node is not installed; the Khronos glTF validator did not run");
+    let Some(report) = common::khronos_validator(&gltfs) else {
         return;
-    }
-    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
-    // one validator at a time: its first run installs it with `npm ci`, which must not race
-    let _one = VALIDATOR.lock().unwrap_or_else(|e| e.into_inner());
-    let o = std::process::Command::new("bash")
-        .arg(script)
-        .args(&gltfs)
-        .output()
-        .unwrap();
-    let report = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "validator: {report}{}",
-        common::stderr(&o)
-    );
+    };
     assert_eq!(
         report.matches(" 0 errors, 0 warnings").count(),
         gltfs.len(),
@@ -492,28 +470,9 @@ fn preset_export_gltf_of_a_light_preset_writes_the_same_node_as_light_preset_and
     ]);
     assert_rejected(&o, &["bad.json", "emitter_rect_m"]);
     assert!(!out.exists() && !dir.path().join("bad/x.ies").exists());
-    if std::process::Command::new("node")
-        .arg("--version")
-        .output()
-        .is_err()
-    {
-        eprintln!("SKIPPED: node is not installed; the Khronos glTF validator did not run");
+    let Some(report) = common::khronos_validator(&[&exported]) else {
         return;
-    }
-    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
-    // one validator at a time: its first run installs it with `npm ci`, which must not race
-    let _one = VALIDATOR.lock().unwrap_or_else(|e| e.into_inner());
-    let o = std::process::Command::new("bash")
-        .arg(script)
-        .arg(&exported)
-        .output()
-        .unwrap();
-    let report = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "validator: {report}{}",
-        common::stderr(&o)
-    );
+    };
     assert_eq!(
         report.matches(" 0 errors, 0 warnings").count(),
         1,

@@ -75,3 +75,27 @@ pub fn lvf_map_errors(lvf: &serde_json::Value, truth: &serde_json::Value) -> [f6
     [("px_at_400", 400.0), ("px_at_700", 700.0)]
         .map(|(key, nm)| lam(truth[key].as_f64().expect("truth px_at_400/700")) - nm)
 }
+
+/// Serialises the runs of `scripts/validate_gltf.sh` within a test binary: its first run installs
+/// the validator with `npm ci`, which must not race.
+static GLTF_VALIDATOR: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Runs the Khronos glTF validator (`scripts/validate_gltf.sh`) on `files` and returns its report;
+/// `None`, with a SKIPPED message, when node is not installed. Fails when the script fails (any
+/// file with an error).
+pub fn khronos_validator<P: AsRef<std::ffi::OsStr>>(files: &[P]) -> Option<String> {
+    if Command::new("node").arg("--version").output().is_err() {
+        eprintln!("SKIPPED: node is not installed; the Khronos glTF validator did not run");
+        return None;
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/validate_gltf.sh");
+    let _one = GLTF_VALIDATOR.lock().unwrap_or_else(|e| e.into_inner());
+    let o = Command::new("bash")
+        .arg(script)
+        .args(files)
+        .output()
+        .expect("bash runs");
+    let report = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(o.status.success(), "validator: {report}{}", stderr(&o));
+    Some(report)
+}
