@@ -285,6 +285,21 @@ fn without_the_camera_a_biased_spline_in_u_gives_way_to_the_passband_continuum()
         hint.contains("--camera") && hint.contains("mercury lamp") && hint.contains(&bg.model),
         "{hint}"
     );
+    // the accuracy is the user's: asked for 2 nm, σ here (under 2 nm) draws no hint
+    let sigma = cal.sigma_nm_at_400.max(cal.sigma_nm_at_700);
+    assert!(sigma < 2.0, "σ {sigma}");
+    let loose = FitOptions {
+        sigma_hint_nm: 2.0,
+        ..FitOptions::default()
+    };
+    let (cal, _) = calibrated(&s, &loose);
+    assert!(
+        !cal.warnings
+            .iter()
+            .any(|w| w.starts_with("σ at 400 / 700 nm is")),
+        "{:?}",
+        cal.warnings
+    );
 }
 
 /// The default with `--camera`: one shared spectrum on knots 0.35 FWHM apart, smoothed by a

@@ -132,6 +132,7 @@ fn out_of_range_knot_and_smoothness_lists_exit_2_naming_the_flag() {
         ("--shared-knots", "0.35,0.1", "0.25–10 FWHM"),
         ("--shared-smoothness", "-0.01", "0 (no penalty) to 10"),
         ("--continuum-knots", "0.5", "0.8–10 FWHM"),
+        ("--sigma-hint", "0", "positive accuracy"),
     ] {
         let o = lumifit(&[
             "lvf",
@@ -271,6 +272,10 @@ fn the_help_defaults_of_the_continuum_lists_are_the_library_constants() {
     assert_eq!(default_of("continuum-knots"), CONTINUUM_KNOT_FWHM.to_vec());
     assert_eq!(default_of("shared-knots"), SHARED_KNOT_FWHM.to_vec());
     assert_eq!(default_of("shared-smoothness"), SHARED_SMOOTHNESS.to_vec());
+    assert_eq!(
+        default_of("sigma-hint"),
+        vec![lumifit::lvf::CONTINUUM_SIGMA_HINT_NM]
+    );
     let defaults = lumifit::lvf::FitOptions::default();
     assert_eq!(defaults.shared_smoothness, SHARED_SMOOTHNESS.to_vec());
 }

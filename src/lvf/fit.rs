@@ -203,6 +203,10 @@ pub struct FitOptions {
     /// [`crate::lvf::flat`]) multiplying lines and continuum; replaces the radial estimate.
     /// Ignored unless it has one value per profile position.
     pub fixed_falloff: Option<Vec<f64>>,
+    /// The accuracy the user needs at 400 and 700 nm (nm): without `camera`, a continuum model
+    /// whose σ there exceeds it draws a warning naming what would narrow it. Default
+    /// [`CONTINUUM_SIGMA_HINT_NM`].
+    pub sigma_hint_nm: f64,
 }
 
 impl Default for FitOptions {
@@ -222,6 +226,7 @@ impl Default for FitOptions {
             shared_knots_fwhm: SHARED_KNOT_FWHM.to_vec(),
             shared_smoothness: SHARED_SMOOTHNESS.to_vec(),
             fixed_falloff: None,
+            sigma_hint_nm: CONTINUUM_SIGMA_HINT_NM,
         }
     }
 }
@@ -1911,16 +1916,17 @@ pub fn calibrate_whole_profile(
     let sigma_ends = [cal.sigma_nm_at_400, cal.sigma_nm_at_700];
     if opts.camera.is_none()
         && pr.terms.has_continuum()
-        && sigma_ends.iter().any(|s| *s > CONTINUUM_SIGMA_HINT_NM)
+        && sigma_ends.iter().any(|s| *s > opts.sigma_hint_nm)
     {
         cal.warnings.push(format!(
-            "σ at 400 / 700 nm is {:.2} / {:.2} nm (statistical {:.2} / {:.2}, systematic {:.2} / {:.2}): the continuum under the lines ({}) is drawn per channel without the camera's curves and trades with the lines; give the camera's sensitivities (--camera) so that one continuum spectrum is shared by the three channels{}",
+            "σ at 400 / 700 nm is {:.2} / {:.2} nm (statistical {:.2} / {:.2}, systematic {:.2} / {:.2}; --sigma-hint {} nm): the continuum under the lines ({}) is drawn per channel without the camera's curves and trades with the lines; give the camera's sensitivities (--camera) so that one continuum spectrum is shared by the three channels{}",
             cal.sigma_nm_at_400,
             cal.sigma_nm_at_700,
             cal.sigma_statistical_nm_at_400,
             cal.sigma_statistical_nm_at_700,
             cal.sigma_systematic_nm_at_400,
             cal.sigma_systematic_nm_at_700,
+            opts.sigma_hint_nm,
             pr.terms.name(),
             if lamp.is_mercury() {
                 ""
@@ -1937,8 +1943,9 @@ pub fn calibrate_whole_profile(
 const DISPLACED_REFERENCE_DELTA_BIC: f64 = MODEL_CHOICE_DELTA_BIC;
 
 /// Without `--camera`, a continuum model whose σ at 400 or 700 nm exceeds this (nm; issue 12's
-/// bound for a CFL at 1 % noise) draws a warning naming what would narrow it.
-const CONTINUUM_SIGMA_HINT_NM: f64 = 0.3;
+/// bound for a CFL at 1 % noise) draws a warning naming what would narrow it, unless the user
+/// sets another accuracy ([`FitOptions::sigma_hint_nm`], `--sigma-hint`).
+pub const CONTINUUM_SIGMA_HINT_NM: f64 = 0.3;
 
 /// A group of lines spanning at most this (× FWHM) is one blob through the passband: its
 /// residual is its centroid's move ([`group_shift`]).

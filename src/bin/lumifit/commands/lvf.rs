@@ -134,6 +134,10 @@ pub struct CalibrateArgs {
     /// (the knot spacing alone limits the spectrum).
     #[arg(long, value_delimiter = ',', default_value = "0.01,0.03")]
     pub shared_smoothness: Vec<f64>,
+    /// The accuracy you need at 400 and 700 nm (nm, > 0): without --camera, a continuum model
+    /// whose σ there exceeds it draws a warning with σ's parts and what would narrow it.
+    #[arg(long, default_value_t = lumifit::lvf::CONTINUUM_SIGMA_HINT_NM)]
+    pub sigma_hint: f64,
     /// Flat-field photo through the LVF (broadband source, same size and framing): its smooth
     /// fall-off is divided out instead of the one modelled from the lamp photo.
     #[arg(long)]
@@ -235,6 +239,12 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         0.0..=10.0,
         "values of 0 (no penalty) to 10, e.g. 0.01,0.03",
     )?;
+    if !(a.sigma_hint.is_finite() && a.sigma_hint > 0.0) {
+        anyhow::bail!(
+            "--sigma-hint: {} nm; expected a positive accuracy in nm, e.g. 0.3",
+            a.sigma_hint
+        );
+    }
     lumifit::limits::check_count(
         "--bands",
         a.bands,
@@ -338,6 +348,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         continuum_knots_fwhm: a.continuum_knots.clone(),
         shared_knots_fwhm: a.shared_knots.clone(),
         shared_smoothness: a.shared_smoothness.clone(),
+        sigma_hint_nm: a.sigma_hint,
         camera,
         fixed_falloff: None,
         ..FitOptions::default()
