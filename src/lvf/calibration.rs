@@ -95,10 +95,10 @@ pub struct LineReport {
     /// Position where the map puts it (px).
     pub px: f64,
     /// Map wavelength at the line's observed position minus the line's wavelength (nm): the
-    /// shift of its group of unresolved lines, alone, that fits the profile best (for a blend of
-    /// lines within half the FWHM, the move of its amplitude-weighted centroid, which a trade between the
-    /// lines' amplitudes cannot fake); `None` (`null`) where the profile does not determine
-    /// that shift.
+    /// shift of its group of unresolved lines, alone, that fits the profile best (for a blend
+    /// of lines within half the FWHM, the move of its amplitude-weighted centroid, which a
+    /// trade between the lines' amplitudes cannot fake); `None` (`null`) where the profile does
+    /// not determine that shift.
     pub residual_nm: Option<f64>,
     /// Standard uncertainty of `residual_nm` (nm), when determined (whole-profile only).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -893,11 +893,12 @@ fn downsample(profile: &Profile, max_points: usize) -> (Vec<f64>, [Vec<f64>; 3])
 /// gaps) from the data's second differences, floored at `s2_floor`. Not determined: an interval
 /// that reaches the edge of the search, σ above the bound, or another basin within Δχ² of
 /// [`LINE_SHIFT_OTHER_CHI2`]. For a blend (several lines within [`BLEND_SPAN_FWHM`]) what is
-/// returned is the move of the group's centroid (amplitude-weighted mean wavelength, [`group_centroid`]) from d = 0 to the
-/// best d, and half its range over the interval's ends and the best d.
+/// returned is the move of the group's centroid ([`centroid`]) from the fit (`fit_eval`, θ's
+/// own evaluation) to the best d, and half its range over the interval's ends and the best d.
 fn group_shift(
     pr: &Problem,
     theta: &[f64],
+    fit_eval: &Eval,
     lams: &[f64],
     idx: &[usize],
     fwhm: f64,
@@ -982,8 +983,14 @@ fn group_shift(
         // amplitude-weighted mean. A chain wider than that (a CFL's 577–612 nm) is not one
         // blob: its shift is reported.
         (true, Some(lo), Some(hi)) => {
-            let c0 = group_centroid(pr, theta, idx, 0.0)?;
-            let at = [lo, d, hi].map(|x| group_centroid(pr, theta, idx, x));
+            let c0 = centroid(fit_eval, &pr.lines, idx)?;
+            let at = [lo, d, hi].map(|x| {
+                let mut l = pr.lines.clone();
+                for &i in idx {
+                    l[i] += x;
+                }
+                centroid(&pr.eval_with(theta, &l), &l, idx)
+            });
             let [Some(c_lo), Some(c_d), Some(c_hi)] = at else {
                 return None;
             };
@@ -994,20 +1001,15 @@ fn group_shift(
     }
 }
 
-/// The amplitude-weighted mean wavelength (nm) of a group of lines (`idx` into `pr.lines`)
-/// shifted by `d`, its amplitudes summed over the channels and fitted at θ with the shift; None
-/// when the group has no amplitude.
-fn group_centroid(pr: &Problem, theta: &[f64], idx: &[usize], d: f64) -> Option<f64> {
-    let mut l = pr.lines.clone();
-    for &i in idx {
-        l[i] += d;
-    }
-    let e = pr.eval_with(theta, &l);
+/// The amplitude-weighted mean wavelength (nm) of the lines `idx` of `lines` in the evaluation
+/// `e` of those lines, amplitudes summed over the channels; None when the group has no
+/// amplitude.
+fn centroid(e: &Eval, lines: &[f64], idx: &[usize]) -> Option<f64> {
     let (mut sw, mut swl) = (0.0, 0.0);
     for &i in idx {
         let a: f64 = (0..3).map(|c| e.alpha[c][N_BG + i]).sum();
         sw += a;
-        swl += a * l[i];
+        swl += a * lines[i];
     }
     (sw > 0.0).then(|| swl / sw)
 }
@@ -1513,7 +1515,10 @@ pub fn calibrate_whole_profile(
                 return (None, amp);
             }
             let idx: Vec<usize> = g.iter().map(|&k| in_range[k]).collect();
-            (group_shift(&pr, &theta, &lams, &idx, fwhm, s2_floor), amp)
+            (
+                group_shift(&pr, &theta, &eval, &lams, &idx, fwhm, s2_floor),
+                amp,
+            )
         })
         .collect();
     let mut shifts: Vec<Option<(f64, f64)>> = vec![None; in_lines.len()];
@@ -1666,7 +1671,7 @@ pub fn calibrate_whole_profile(
         flat_field: None,
         falloff_source: match (fixed.is_some(), radial_applied, pr.terms.falloff_degree) {
             (true, _, _) => "given: a fall-off supplied by the caller".into(),
-            (false, true, 0) => "modelled: radial about the image centre, estimated from the ROI's strips across the axis".into(),
+            (false, true, 0) => "modelled: radial about the image centre (estimated from the ROI's strips across the axis)".into(),
             (false, true, j) => format!("modelled: radial from the strips × fitted polynomial of degree {j} along the axis"),
             (false, false, 0) => "none".into(),
             (false, false, j) => format!("modelled: fitted polynomial of degree {j} along the axis"),
@@ -1950,6 +1955,7 @@ pub const CONTINUUM_SIGMA_HINT_NM: f64 = 0.3;
 /// A group of lines spanning at most this (× FWHM) is one blob through the passband: its
 /// residual is its centroid's move ([`group_shift`]).
 const BLEND_SPAN_FWHM: f64 = 0.5;
+
 /// Grid step of the search for a line group's shift, in FWHM (±½ FWHM in 21 steps).
 const LINE_SHIFT_GRID_FWHM: f64 = 0.05;
 /// A second basin of the shift cost within this Δχ² of the minimum makes the shift ambiguous.

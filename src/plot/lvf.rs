@@ -110,12 +110,8 @@ pub fn lvf_chart_png(cal: &LvfCalibration) -> Result<Vec<u8>> {
                 if c.falloff.iter().any(|v| *v != 1.0) {
                     format!(
                         "{}, V at the ends {:.3} / {:.3}",
-                        // the source without its explanation
-                        b.falloff_source
-                            .split(" (")
-                            .next()
-                            .and_then(|s| s.split(", estimated").next())
-                            .unwrap_or("modelled"),
+                        // the source without its explanation in parentheses
+                        b.falloff_source.split(" (").next().unwrap_or("modelled"),
                         c.falloff.first().copied().unwrap_or(1.0),
                         c.falloff.last().copied().unwrap_or(1.0)
                     )
