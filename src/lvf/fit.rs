@@ -1317,7 +1317,8 @@ pub fn calibrate_whole_profile(
     }
     let n_obs = 3 * profile.px.len();
 
-    // Map degree.
+    // Map degree. Fits of the other degree, kept for the model-choice systematic.
+    let mut map_alternatives: Vec<(Problem, Fitted, f64)> = Vec::new();
     let (pr, chosen, selection) = match opts.map {
         MapChoice::Linear => (
             chosen_pr,
@@ -1330,53 +1331,91 @@ pub fn calibrate_whole_profile(
             },
         ),
         MapChoice::Quadratic | MapChoice::Auto => {
-            let qpr = chosen_pr.with(3, chosen_pr.terms);
-            let quad = qpr.levenberg_marquardt(&qpr.theta_from(&chosen_pr, &chosen_fit.theta));
-            if opts.map == MapChoice::Quadratic {
-                (
-                    qpr,
-                    quad,
-                    MapSelection {
-                        requested: "quadratic".into(),
-                        f_statistic: None,
-                        quadratic_t: None,
-                        reason: "quadratic map requested".into(),
-                    },
-                )
+            // The map's degree is chosen together with the background: with the map held
+            // linear, a continuum takes up a curved map's misfit (a passband continuum drew a
+            // 7 nm bow on a lamp with no continuum at all, and the quadratic term then gained
+            // nothing; docs/performance.md, issue 12, twenty-first session). So every
+            // background candidate is refitted with a quadratic map and the pair with the
+            // smallest BIC wins; a quadratic map must also pass the F-test (p < 0.001) and
+            // |a2| > 3σ against the same background with a linear map.
+            let n_extra = chosen_pr.lines().len().saturating_sub(lines.len());
+            let quads: Vec<(Problem, Fitted, f64, f64, f64)> =
+                std::iter::once((&chosen_pr, &chosen_fit))
+                    .chain(others.iter().map(|(p, f, _)| (p, f)))
+                    .collect::<Vec<_>>()
+                    .par_iter()
+                    .map(|&(lpr, lfit)| {
+                        let qpr = lpr.with(3, lpr.terms);
+                        let quad = qpr.levenberg_marquardt(&qpr.theta_from(lpr, &lfit.theta));
+                        let bic = qpr.bic(&quad) + n_extra as f64 * ln_n;
+                        let dof2 = n_obs
+                            .saturating_sub(qpr.n_theta() + quad.eval.n_active)
+                            .max(1) as f64;
+                        let f =
+                            (lfit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
+                        let t_a2 = covariance(&quad.jac, quad.eval.sse, dof2)
+                            .as_ref()
+                            .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
+                            .unwrap_or(0.0);
+                        (qpr, quad, bic, f, t_a2)
+                    })
+                    .collect();
+            let justified = |q: &(Problem, Fitted, f64, f64, f64)| q.3 > 10.83 && q.4.abs() > 3.0;
+            let requested = if opts.map == MapChoice::Quadratic {
+                "quadratic"
             } else {
-                let dof2 = n_obs
-                    .saturating_sub(qpr.n_theta() + quad.eval.n_active)
-                    .max(1) as f64;
-                let f = (chosen_fit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
-                let cov = covariance(&quad.jac, quad.eval.sse, dof2);
-                let t_a2 = cov
-                    .as_ref()
-                    .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
-                    .unwrap_or(0.0);
-                // F(1, ∞) at p = 0.001 is 10.83.
-                if f > 10.83 && t_a2.abs() > 3.0 {
-                    (
-                        qpr,
-                        quad,
-                        MapSelection {
-                            requested: "auto".into(),
-                            f_statistic: Some(f),
-                            quadratic_t: Some(t_a2),
-                            reason: "quadratic: F-test p < 0.001 and |a2| > 3σ".into(),
-                        },
-                    )
-                } else {
-                    (
-                        chosen_pr,
-                        chosen_fit,
-                        MapSelection {
-                            requested: "auto".into(),
-                            f_statistic: Some(f),
-                            quadratic_t: Some(t_a2),
-                            reason: "linear: the quadratic term is not justified (needs F > 10.83 and |a2| > 3σ)".into(),
-                        },
-                    )
+                "auto"
+            };
+            let best_quad = (0..quads.len())
+                .filter(|&i| opts.map == MapChoice::Quadratic || justified(&quads[i]))
+                .min_by(|&a, &b| quads[a].2.total_cmp(&quads[b].2));
+            let take_quad = match best_quad {
+                Some(i) => opts.map == MapChoice::Quadratic || quads[i].2 < best_bic,
+                None => false,
+            };
+            // F and t as reported: the winning quadratic's, or when the linear map wins, those
+            // of the quadratic with the chosen background.
+            let (mut quads, report_i) = (quads, if take_quad { best_quad.unwrap_or(0) } else { 0 });
+            let (f, t_a2) = (quads[report_i].3, quads[report_i].4);
+            let reason = match (opts.map, take_quad) {
+                (MapChoice::Quadratic, _) => "quadratic map requested (background chosen by BIC among the quadratic-map fits)".to_string(),
+                (_, true) => "quadratic: the smallest BIC over every background with either map degree, and against the same background with a linear map F-test p < 0.001 and |a2| > 3σ".to_string(),
+                (_, false) => match best_quad {
+                    Some(i) => format!(
+                        "linear: the best quadratic map that passes the F-test and |a2| > 3σ ({}) is ΔBIC {:+.1} from the chosen linear one",
+                        quads[i].0.terms.name(),
+                        quads[i].2 - best_bic
+                    ),
+                    None => "linear: no quadratic map is justified with any background (needs F > 10.83 and |a2| > 3σ against the same background with a linear map)".to_string(),
+                },
+            };
+            let selection = MapSelection {
+                requested: requested.into(),
+                f_statistic: (opts.map == MapChoice::Auto).then_some(f),
+                quadratic_t: (opts.map == MapChoice::Auto).then_some(t_a2),
+                reason,
+            };
+            if take_quad {
+                // The background alternatives are now the other quadratic-map fits; the
+                // linear-map fits are the alternatives of the other degree (none counted when
+                // the degree was requested).
+                let (qpr, quad, qbic, _, _) = quads.swap_remove(report_i);
+                if focused.is_some() && qpr.terms != chosen_pr.terms {
+                    focused = None;
                 }
+                let linear: Vec<(Problem, Fitted, f64)> =
+                    std::iter::once((chosen_pr, chosen_fit, best_bic))
+                        .chain(std::mem::take(&mut others))
+                        .collect();
+                others = quads.into_iter().map(|(p, f, b, _, _)| (p, f, b)).collect();
+                if opts.map == MapChoice::Auto {
+                    map_alternatives = linear;
+                }
+                best_bic = qbic;
+                (qpr, quad, selection)
+            } else {
+                map_alternatives = quads.into_iter().map(|(p, f, b, _, _)| (p, f, b)).collect();
+                (chosen_pr, chosen_fit, selection)
             }
         }
     };
@@ -1628,10 +1667,14 @@ pub fn calibrate_whole_profile(
         nm_at_400_position: lam_of(&pr, &theta, u400),
         nm_at_700_position: lam_of(&pr, &theta, u700),
     });
-    for (cpr, cf, cb) in &others {
+    for (cpr, cf, cb) in others.iter().chain(&map_alternatives) {
         let l4 = lam_of(cpr, &cf.theta, u400);
         let l7 = lam_of(cpr, &cf.theta, u700);
-        let counted = if pr.terms.shared_intervals > 0 {
+        // a map of the other degree (`--map auto`) counts as a background alternative would
+        // without a continuum: within ΔBIC ≤ 10
+        let counted = if cpr.n_map != pr.n_map {
+            cb - best_bic <= 10.0
+        } else if pr.terms.shared_intervals > 0 {
             cb - best_bic <= MODEL_CHOICE_DELTA_BIC
         } else {
             cb - best_bic <= 10.0 || (pr.terms.has_continuum() && cpr.terms.has_continuum())
@@ -1645,7 +1688,11 @@ pub fn calibrate_whole_profile(
             }
         }
         candidate_reports.push(CandidateReport {
-            model: cpr.terms.name(),
+            model: match (cpr.n_map == pr.n_map, cpr.n_map) {
+                (true, _) => cpr.terms.name(),
+                (false, 3) => format!("{} · quadratic map", cpr.terms.name()),
+                (false, _) => format!("{} · linear map", cpr.terms.name()),
+            },
             bic: *cb,
             delta_bic: cb - best_bic,
             profile_rms: (cf.eval.sse / n_obs as f64).sqrt(),

@@ -3,7 +3,8 @@
 //! planning aid.
 //!
 //! Along the axis, position p (pixels, centres at integers) passes λ(p) = nm_at_start +
-//! nm_per_px·p with a Gaussian passband g of the given FWHM; channel c records
+//! nm_per_px·p (+ an optional bow, [`LvfSynthSpec::bow_nm`], a quadratic term) with a Gaussian
+//! passband g of the given FWHM; channel c records
 //!
 //! ```text
 //! V(x, y)·[ Σ_l P_l·S_c(λ_l)·⟨g(λ_l − λ(p + t))⟩_t  +  k·Σ_λ C(λ)·S_c(λ)·g(λ − λ(p))·1 nm ]
@@ -77,6 +78,10 @@ pub struct LvfSynthSpec {
     pub nm_at_start: f64,
     /// Dispersion (nm/px), may be negative.
     pub nm_per_px: f64,
+    /// Bow of the map (nm): how far λ at the middle of the axis lies from the straight line
+    /// through its ends, λ(p) = nm_at_start + nm_per_px·p + 4·bow·p·(L−1−p)/(L−1)² (L positions
+    /// along the axis); 0 for the linear map of the paper.
+    pub bow_nm: f64,
     /// Passband FWHM (nm).
     pub fwhm_nm: f64,
     /// The lamp.
@@ -276,7 +281,7 @@ pub struct LvfTruth {
     pub axis: Axis,
     /// Image size `[w, h]`.
     pub size: [usize; 2],
-    /// True map (λ = c0 + c1·px).
+    /// True map (λ = c0 + c1·px, with a bow + c2·px²).
     pub map: serde_json::Value,
     /// True FWHM (nm).
     pub fwhm_nm: f64,
@@ -355,8 +360,35 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
             ));
         }
     }
+    // λ = c0 + c1·p + c2·p² with the bow's quadratic term
+    let span = (along.max(2) - 1) as f64;
+    let coeffs = [
+        spec.nm_at_start,
+        spec.nm_per_px + 4.0 * spec.bow_nm / span,
+        -4.0 * spec.bow_nm / (span * span),
+    ];
+    if !spec.bow_nm.is_finite() || 4.0 * spec.bow_nm.abs() / span >= spec.nm_per_px.abs() {
+        return Err(Error::invalid(
+            "--bow",
+            format!(
+                "{} nm: the map must stay monotonic along the axis, |bow| < |nm-per-px|·(L − 1)/4 = {:.1} nm",
+                spec.bow_nm,
+                spec.nm_per_px.abs() * span / 4.0
+            ),
+        ));
+    }
     let g = Passband::Gaussian;
-    let lam_at = |p: f64| spec.nm_at_start + spec.nm_per_px * p;
+    let lam_at = |p: f64| coeffs[0] + coeffs[1] * p + coeffs[2] * p * p;
+    // the position of a wavelength: the root of the quadratic in [0, L − 1] (or the linear map's)
+    let px_at = |nm: f64| {
+        if coeffs[2] == 0.0 {
+            return (nm - coeffs[0]) / coeffs[1];
+        }
+        let (a, b, c) = (coeffs[2], coeffs[1], coeffs[0] - nm);
+        let d = (b * b - 4.0 * a * c).max(0.0).sqrt();
+        // the root continuous with the linear map's (−c/b) as a → 0
+        2.0 * -c / (b + b.signum() * d)
+    };
     let mut profile: Vec<[f64; 3]> = (0..along)
         .map(|p| {
             std::array::from_fn(|c| {
@@ -457,10 +489,14 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         schema: "lumifit.lvf-truth/1",
         axis: spec.axis,
         size: [spec.width, spec.height],
-        map: serde_json::json!({"kind": "linear", "coefficients": [spec.nm_at_start, spec.nm_per_px]}),
+        map: if spec.bow_nm == 0.0 {
+            serde_json::json!({"kind": "linear", "coefficients": [spec.nm_at_start, spec.nm_per_px]})
+        } else {
+            serde_json::json!({"kind": "quadratic", "coefficients": coeffs, "bow_nm": spec.bow_nm})
+        },
         fwhm_nm: spec.fwhm_nm,
-        px_at_400: (400.0 - spec.nm_at_start) / spec.nm_per_px,
-        px_at_700: (700.0 - spec.nm_at_start) / spec.nm_per_px,
+        px_at_400: px_at(400.0),
+        px_at_700: px_at(700.0),
         lamp: spec.lamp.clone(),
         camera: spec.camera.name().to_string(),
         noise: spec.noise,

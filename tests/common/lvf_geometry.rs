@@ -21,6 +21,7 @@ pub fn spec(
         axis: Axis::X,
         nm_at_start: 372.3,
         nm_per_px: 0.3117,
+        bow_nm: 0.0,
         fwhm_nm: 25.0,
         lamp,
         camera,

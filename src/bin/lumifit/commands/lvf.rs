@@ -50,9 +50,11 @@ pub enum MethodArg {
 pub enum MapArg {
     /// Linear.
     Linear,
-    /// Quadratic.
+    /// Quadratic (the background chosen among the quadratic-map fits).
     Quadratic,
-    /// Quadratic only if the data justify it.
+    /// Chosen with the background by BIC over both degrees; quadratic only if it also passes the
+    /// F-test (p < 0.001) and |a2| > 3σ against the same background with a linear map; a map of
+    /// the other degree within ΔBIC 10 widens σ. For an LVF that may not be linear.
     Auto,
 }
 
@@ -94,7 +96,8 @@ pub struct CalibrateArgs {
     /// Method.
     #[arg(long, value_enum, default_value = "whole-profile")]
     pub method: MethodArg,
-    /// Map degree.
+    /// Map degree: linear (the paper's LVF), quadratic, or auto (for a filter that may not be
+    /// linear; about twice the fitting time).
     #[arg(long, value_enum, default_value = "linear")]
     pub map: MapArg,
     /// Passband: `gaussian` or a CSV offset_nm,transmission (measured shape).

@@ -96,6 +96,10 @@ pub struct LvfHgArgs {
     /// Dispersion (nm per pixel; negative for a filter running red to blue).
     #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
     pub nm_per_px: f64,
+    /// Bow of the map (nm): λ at the middle of the axis minus the straight line through its ends
+    /// (a quadratic map; 0: linear, as the paper's LVF). Negative bows the other way.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub bow: f64,
     /// Passband FWHM (nm).
     #[arg(long, default_value_t = 25.0)]
     pub fwhm: f64,
@@ -295,6 +299,7 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         },
         nm_at_start: a.nm_at_start,
         nm_per_px: a.nm_per_px,
+        bow_nm: a.bow,
         fwhm_nm: a.fwhm,
         lamp: resolve_lamp(&a.lamp)?,
         camera: read_camera(a.camera.as_deref())?.curves,
