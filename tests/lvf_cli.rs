@@ -279,3 +279,91 @@ fn the_help_defaults_of_the_continuum_lists_are_the_library_constants() {
     let defaults = lumifit::lvf::FitOptions::default();
     assert_eq!(defaults.shared_smoothness, SHARED_SMOOTHNESS.to_vec());
 }
+
+#[test]
+fn a_passband_shape_rendered_by_synth_is_fitted_by_calibrate_and_carried_by_lvf_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let o = lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--passband",
+        "gennorm:2.5",
+        "--size",
+        "1200x40",
+        "--out",
+        &p("hg.tiff"),
+        "--truth",
+        &p("truth.json"),
+        "--seed",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["passband"]["beta"], 2.5);
+    let o = lumifit(&[
+        "lvf",
+        "calibrate",
+        &p("hg.tiff"),
+        "--axis",
+        "x",
+        "--passband",
+        "gennorm",
+        "--out",
+        &p("lvf.json"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("lvf.json")).unwrap()).unwrap();
+    assert_eq!(cal["passband"]["shape"], "gennorm");
+    let beta = cal["passband"]["beta"].as_f64().unwrap();
+    assert!((beta - 2.5).abs() < 0.15, "β {beta}");
+    let lam = |px: f64| {
+        let c = cal["map"]["coefficients"].as_array().unwrap();
+        c.iter()
+            .enumerate()
+            .map(|(i, v)| v.as_f64().unwrap() * px.powi(i as i32))
+            .sum::<f64>()
+    };
+    for (k, nm) in [("px_at_400", 400.0), ("px_at_700", 700.0)] {
+        let e = lam(truth[k].as_f64().unwrap()) - nm;
+        assert!(e.abs() < 0.15, "{k}: {e}");
+    }
+    // the next command reads the shape back: lvf.json feeds the geometry of the captures
+    let g =
+        lumifit::lvf::LvfGeometry::from_json(&std::fs::read(p("lvf.json")).unwrap(), "lvf.json")
+            .unwrap();
+    assert_eq!(g.passband, lumifit::lvf::Passband::GenNormal { beta });
+    // an exponent out of range: exit 2, named, nothing written
+    for args in [
+        vec![
+            "lvf",
+            "calibrate",
+            &p("hg.tiff"),
+            "--axis",
+            "x",
+            "--passband",
+            "gennorm:0",
+            "--out",
+        ],
+        vec![
+            "synth",
+            "lvf-hg",
+            "--passband",
+            "gennorm:x",
+            "--truth",
+            &p("t2.json"),
+            "--out",
+        ],
+    ] {
+        let mut a = args.clone();
+        let out = p("never.json");
+        a.push(&out);
+        let o = lumifit(&a);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--passband"), "{}", stderr(&o));
+        assert!(!std::path::Path::new(&out).exists());
+        assert!(!std::path::Path::new(&p("t2.json")).exists());
+    }
+}

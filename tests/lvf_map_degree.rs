@@ -27,6 +27,7 @@ fn spec(
         nm_at_start: 372.3,
         nm_per_px: 0.3117,
         bow_nm,
+        passband: lumifit::lvf::Passband::Gaussian,
         fwhm_nm: 25.0,
         lamp,
         camera: default_camera().unwrap(),

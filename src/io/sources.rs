@@ -90,13 +90,27 @@ pub fn resolve_lamp(arg: &str) -> Result<Lamp> {
     }
 }
 
-/// `--passband`: `gaussian`, or a CSV `offset_nm,transmission` (a measured shape).
+/// `--passband`: `gaussian`, `gennorm:BETA` (a generalised normal of exponent BETA), or a CSV
+/// `offset_nm,transmission` (a measured shape). (`gennorm` alone, the exponent fitted, is the
+/// caller's: [`crate::lvf::FitOptions::passband_exponent_search`].)
 ///
 /// # Errors
 /// The table errors of the file; [`Error::Parse`] when it has fewer than two columns.
 pub fn resolve_passband(arg: &str) -> Result<Passband> {
     if arg.eq_ignore_ascii_case("gaussian") {
         return Ok(Passband::Gaussian);
+    }
+    if let Some(b) = arg
+        .strip_prefix("gennorm:")
+        .or_else(|| arg.strip_prefix("GENNORM:"))
+    {
+        return match b.trim().parse::<f64>() {
+            Ok(beta) if (0.5..=20.0).contains(&beta) => Ok(Passband::GenNormal { beta }),
+            _ => Err(Error::invalid(
+                "--passband",
+                format!("'{arg}': expected gennorm:BETA with the exponent BETA in [0.5, 20] (2: Gaussian), or gennorm to fit it"),
+            )),
+        };
     }
     let (bytes, src) = super::read_input(Path::new(arg))?;
     let t = crate::table::parse_numeric_csv(&bytes, &src)?;
@@ -225,6 +239,11 @@ mod tests {
             resolve_passband("gaussian").unwrap(),
             Passband::Gaussian
         ));
+        assert!(
+            matches!(resolve_passband("gennorm:2.5").unwrap(), Passband::GenNormal { beta } if beta == 2.5)
+        );
+        let e = resolve_passband("gennorm:0").unwrap_err().to_string();
+        assert!(e.contains("--passband") && e.contains("[0.5, 20]"), "{e}");
         assert_eq!(
             white_reflectance("0.9", &[400.0, 500.0]).unwrap(),
             [0.9, 0.9]

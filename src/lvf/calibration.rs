@@ -269,6 +269,9 @@ pub struct LvfCalibration {
     pub fwhm_nm: f64,
     /// Standard uncertainty of the FWHM (nm).
     pub fwhm_sigma_nm: f64,
+    /// The passband's shape ([`crate::lvf::Passband::report`]); with `--passband gennorm` also
+    /// `exponent_search`, the BIC of the fit at each exponent tried.
+    pub passband: serde_json::Value,
     /// RMS of the line residuals (nm): each group of blended lines shifted alone, weighted by
     /// its squared amplitude (its weight in the map fit).
     pub rms_residual_nm: f64,

@@ -30,6 +30,9 @@ pub struct LvfGeometry {
     pub fwhm_nm: f64,
     /// Standard uncertainty of the FWHM (nm).
     pub fwhm_sigma_nm: f64,
+    /// The passband's shape (lvf.json's `passband`; Gaussian when absent, as lvf.json files
+    /// written before it was recorded).
+    pub passband: Passband,
     /// The sample bands.
     pub bands: Vec<Band>,
 }
@@ -57,6 +60,8 @@ struct LvfFile {
     fwhm_nm: f64,
     #[serde(default)]
     fwhm_sigma_nm: f64,
+    #[serde(default)]
+    passband: Option<serde_json::Value>,
     bands: Vec<Band>,
 }
 
@@ -157,6 +162,10 @@ impl LvfGeometry {
                 format!("bands[{}].nm = {} does not exceed bands[{i}].nm = {}; expected increasing band wavelengths", i + 1, bands[i + 1].nm, bands[i].nm),
             ));
         }
+        let passband = match &f.passband {
+            Some(v) => Passband::from_report(v, source)?,
+            None => Passband::Gaussian,
+        };
         Ok(LvfGeometry {
             source: source.to_string(),
             axis: f.axis,
@@ -164,6 +173,7 @@ impl LvfGeometry {
             map,
             fwhm_nm,
             fwhm_sigma_nm,
+            passband,
             bands,
         })
     }
@@ -177,6 +187,8 @@ impl LvfGeometry {
             map: cal.map.coefficients.clone(),
             fwhm_nm: cal.fwhm_nm,
             fwhm_sigma_nm: cal.fwhm_sigma_nm,
+            // written by Passband::report, so it reads back; Gaussian only for a hand-made value
+            passband: Passband::from_report(&cal.passband, source).unwrap_or(Passband::Gaussian),
             bands: cal.bands.clone(),
         }
     }
@@ -224,12 +236,12 @@ impl LvfGeometry {
         }
     }
 
-    /// Parametric transmission of band `j` on `grid` (nm): the passband of width `fwhm_nm`
-    /// averaged over the band's window, peak transmission `peak`.
+    /// Parametric transmission of band `j` on `grid` (nm): the passband (the calibration's
+    /// shape) of width `fwhm_nm` averaged over the band's window, peak transmission `peak`.
     pub fn parametric_band(&self, j: usize, grid: &[f64], fwhm_nm: f64, peak: f64) -> Vec<f64> {
         let win = self.window(j);
         let centres: Vec<f64> = win.iter().map(|&p| self.wavelength_at(p)).collect();
-        let g = Passband::Gaussian;
+        let g = &self.passband;
         grid.iter()
             .map(|&l| {
                 peak * centres.iter().map(|&c| g.eval(l - c, fwhm_nm)).sum::<f64>()
@@ -391,5 +403,41 @@ mod tests {
         let g2 = LvfGeometry::from_json(v.to_string().as_bytes(), "lvf.json").unwrap();
         assert_eq!(g2, g);
         assert_eq!(g2.fwhm_sigma_nm, 0.0);
+        assert_eq!(g2.passband, Passband::Gaussian);
+        // an unknown passband shape or exponent is named
+        for (pb, field) in [
+            (serde_json::json!({"shape": "lorentz"}), "passband.shape"),
+            (
+                serde_json::json!({"shape": "gennorm", "beta": 0.1}),
+                "passband.beta",
+            ),
+        ] {
+            let mut v: serde_json::Value = serde_json::from_str(&lvf_text()).unwrap();
+            v["passband"] = pb;
+            let e = LvfGeometry::from_json(v.to_string().as_bytes(), "p.json")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("p.json") && e.contains(field), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_parametric_bands_take_the_calibrations_passband_shape() {
+        // a flat-topped passband (β = 4) read from lvf.json: the band is flatter at its centre
+        // than the Gaussian of the same FWHM and falls faster beyond it
+        let mut v: serde_json::Value = serde_json::from_str(&lvf_text()).unwrap();
+        v["passband"] = Passband::GenNormal { beta: 4.0 }.report();
+        let g4 = LvfGeometry::from_json(v.to_string().as_bytes(), "lvf.json").unwrap();
+        assert_eq!(g4.passband, Passband::GenNormal { beta: 4.0 });
+        let g2 = geometry();
+        let grid = [500.0, 510.0, 530.0];
+        let (t4, t2) = (
+            g4.parametric_band(10, &grid, 25.0, 1.0),
+            g2.parametric_band(10, &grid, 25.0, 1.0),
+        );
+        assert!(t4[1] > t2[1] && t4[2] < t2[2], "{t4:?} {t2:?}");
+        // and a measured shape round-trips through its report
+        let m = Passband::measured(vec![-30.0, 0.0, 30.0], vec![0.0, 1.0, 0.0]).unwrap();
+        assert_eq!(Passband::from_report(&m.report(), "x").unwrap(), m);
     }
 }

@@ -3,8 +3,9 @@
 //! planning aid.
 //!
 //! Along the axis, position p (pixels, centres at integers) passes λ(p) = nm_at_start +
-//! nm_per_px·p (+ an optional bow, [`LvfSynthSpec::bow_nm`], a quadratic term) with a Gaussian
-//! passband g of the given FWHM; channel c records
+//! nm_per_px·p (+ an optional bow, [`LvfSynthSpec::bow_nm`], a quadratic term) with a passband g
+//! of the given FWHM (Gaussian unless [`LvfSynthSpec::passband`] says otherwise); channel c
+//! records
 //!
 //! ```text
 //! V(x, y)·[ Σ_l P_l·S_c(λ_l)·⟨g(λ_l − λ(p + t))⟩_t  +  k·Σ_λ C(λ)·S_c(λ)·g(λ − λ(p))·1 nm ]
@@ -84,6 +85,9 @@ pub struct LvfSynthSpec {
     pub bow_nm: f64,
     /// Passband FWHM (nm).
     pub fwhm_nm: f64,
+    /// Passband shape ([`Passband::Gaussian`] unless a generalised normal or a measured shape
+    /// is asked for).
+    pub passband: Passband,
     /// The lamp.
     pub lamp: Lamp,
     /// Camera sensitivities (3 channels).
@@ -285,6 +289,8 @@ pub struct LvfTruth {
     pub map: serde_json::Value,
     /// True FWHM (nm).
     pub fwhm_nm: f64,
+    /// The passband's shape ([`Passband::report`]).
+    pub passband: serde_json::Value,
     /// Position of 400 nm (px).
     pub px_at_400: f64,
     /// Position of 700 nm (px).
@@ -377,7 +383,7 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
             ),
         ));
     }
-    let g = Passband::Gaussian;
+    let g = &spec.passband;
     let lam_at = |p: f64| coeffs[0] + coeffs[1] * p + coeffs[2] * p * p;
     // the position of a wavelength: the root of the quadratic in [0, L − 1] (or the linear map's)
     let px_at = |nm: f64| {
@@ -495,6 +501,7 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
             serde_json::json!({"kind": "quadratic", "coefficients": coeffs, "bow_nm": spec.bow_nm})
         },
         fwhm_nm: spec.fwhm_nm,
+        passband: spec.passband.report(),
         px_at_400: px_at(400.0),
         px_at_700: px_at(700.0),
         lamp: spec.lamp.clone(),

@@ -256,6 +256,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         nm_at_start: 380.0,
         nm_per_px: 0.3,
         bow_nm: 0.0,
+        passband: crate::lvf::Passband::Gaussian,
         fwhm_nm: 25.0,
         lamp: resolve_lamp("hg")?,
         camera: camera.clone(),

@@ -103,6 +103,10 @@ pub struct LvfHgArgs {
     /// Passband FWHM (nm).
     #[arg(long, default_value_t = 25.0)]
     pub fwhm: f64,
+    /// Passband shape: gaussian, gennorm:BETA (exp(−ln2·|2Δλ/FWHM|^BETA)) or a CSV
+    /// offset_nm,transmission, as `lvf calibrate --passband` reads it.
+    #[arg(long, default_value = "gaussian")]
+    pub passband: String,
     /// Lamp: hg, hg-weak (weak 405/408 nm), cfl or CSV wavelength_nm[,relative_power].
     #[arg(long, default_value = "hg")]
     pub lamp: String,
@@ -272,6 +276,7 @@ fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
 fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
     let mut out = Outputs::new();
     out.inputs(a.camera.iter().map(|c| camera_file(c)));
+    out.inputs(lumifit::io::sources::file_of(&a.passband));
     out.inputs(file_of(&a.lamp));
     out.declare("--out", &a.out)?;
     out.declare("--truth", &a.truth)?;
@@ -301,6 +306,7 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         nm_per_px: a.nm_per_px,
         bow_nm: a.bow,
         fwhm_nm: a.fwhm,
+        passband: lumifit::io::sources::resolve_passband(&a.passband)?,
         lamp: resolve_lamp(&a.lamp)?,
         camera: read_camera(a.camera.as_deref())?.curves,
         noise: a.noise,
