@@ -4,7 +4,8 @@
 //! FWHM 25 nm), the project's default camera (Nikon 5100 NPL, `calib/camera_default.csv`), 1 %
 //! noise. With the map held linear while the background was chosen, a per-channel continuum
 //! took up a 1.8 nm bow on a lamp image without any continuum and the quadratic term then
-//! gained nothing (F 0.6): the map was 2.2 nm off at 700 nm with σ 0.08 nm.
+//! gained nothing (F 0.6): the map was 2.2 nm off at 700 nm with σ 0.08 nm. With the linear map
+//! requested (the default) such an image now draws a warning and a σ that covers the bow.
 
 use lumifit::lvf::synth::{default_camera, Continuum, ContinuumShape, VignettingShape};
 use lumifit::lvf::{
@@ -105,8 +106,19 @@ fn a_bowed_map_without_a_continuum_is_fitted_quadratic_with_the_offset_alone() {
             cal.sigma_nm_at_700,
             cal.map_selection.reason
         );
-        // the linear map cannot draw the bow: more than 1 nm off at 700 nm
+        // the linear map cannot draw the bow: more than 1 nm off at 700 nm; asked for, it says
+        // the map may not be linear (first) and σ counts the quadratic map (covers at 2σ)
         assert!(el[1].abs() > 1.0, "{el:?}");
+        assert!(
+            linear.warnings[0].starts_with("the map may not be linear"),
+            "{:?}",
+            linear.warnings
+        );
+        assert!(
+            2.0 * linear.sigma_nm_at_700 >= el[1].abs(),
+            "σ {}",
+            linear.sigma_nm_at_700
+        );
         assert_eq!(cal.map.kind, MapKind::Quadratic);
         assert_eq!(model(&cal), "linear", "no continuum in the image");
         assert!(e.iter().all(|x| x.abs() <= 0.15), "{e:?}");
@@ -143,6 +155,11 @@ fn a_straight_map_under_a_continuum_stays_linear_with_auto() {
     assert_eq!(
         e, el,
         "the linear map of --map auto is the requested linear one"
+    );
+    assert!(
+        !lin.warnings.iter().any(|w| w.contains("may not be linear")),
+        "{:?}",
+        lin.warnings
     );
     assert!(e.iter().all(|x| x.abs() <= 0.15), "{e:?}");
     // a quadratic alternative within ΔBIC 10 widens σ, never narrows it

@@ -1560,17 +1560,56 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
 
     // Map degree. Fits of the other degree, kept for the model-choice systematic.
     let mut map_alternatives: Vec<(Problem, Fitted, f64)> = Vec::new();
+    let mut bow_warning: Option<String> = None;
     let (pr, chosen, selection) = match opts.map {
-        MapChoice::Linear => (
-            chosen_pr,
-            chosen_fit,
-            MapSelection {
-                requested: "linear".into(),
-                f_statistic: None,
-                quadratic_t: None,
-                reason: "linear map requested".into(),
-            },
-        ),
+        MapChoice::Linear => {
+            // A bowed map on a lamp without a continuum: a continuum takes up the bow and the
+            // map is off by the bow at the ends with σ none the wiser (1.8 nm at 700 nm for σ
+            // 0.28, docs/performance.md, issue 12, twenty-first session). The offset alone with
+            // a quadratic map (one fit) beating the chosen model by BIC says so.
+            let offset_only = std::iter::once((&chosen_pr, &chosen_fit))
+                .chain(others.iter().map(|(p, f, _)| (p, f)))
+                .find(|(p, _)| !p.terms.has_continuum() && p.terms.falloff_degree == 0);
+            if let Some((lpr, lfit)) = offset_only {
+                let n_extra = chosen_pr.lines().len().saturating_sub(lines.len());
+                let qpr = lpr.with(3, lpr.terms);
+                let quad = qpr.levenberg_marquardt(&qpr.theta_from(lpr, &lfit.theta));
+                let qbic = qpr.bic(&quad) + n_extra as f64 * ln_n;
+                let dof2 = n_obs
+                    .saturating_sub(qpr.n_theta() + quad.eval.n_active)
+                    .max(1) as f64;
+                let f = (lfit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
+                let t_a2 = covariance(&quad.jac, quad.eval.sse, dof2)
+                    .as_ref()
+                    .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
+                    .unwrap_or(0.0);
+                if qbic < best_bic - 10.0 && f > 10.83 && t_a2.abs() > 3.0 {
+                    let moved = [-1.0, 1.0].map(|u| {
+                        qpr.lambda(&quad.theta, u) - chosen_pr.lambda(&chosen_fit.theta, u)
+                    });
+                    bow_warning = Some(format!(
+                        "the map may not be linear: the offset alone with a quadratic map explains the profile better than {} with the linear map (BIC lower by {:.0}, a2 at {:.0}σ) and puts the ROI's ends {:+.2} / {:+.2} nm away; a continuum may be drawing the bow — run with --map auto",
+                        chosen_pr.terms.name(),
+                        best_bic - qbic,
+                        t_a2.abs(),
+                        moved[0],
+                        moved[1]
+                    ));
+                    // and σ counts it as a map of the other degree (ΔBIC < 0 ≤ 10)
+                    map_alternatives.push((qpr, quad, qbic));
+                }
+            }
+            (
+                chosen_pr,
+                chosen_fit,
+                MapSelection {
+                    requested: "linear".into(),
+                    f_statistic: None,
+                    quadratic_t: None,
+                    reason: "linear map requested".into(),
+                },
+            )
+        }
         MapChoice::Quadratic | MapChoice::Auto => {
             // The map's degree is chosen together with the background: with the map held
             // linear, a continuum takes up a curved map's misfit (a passband continuum drew a
@@ -2086,6 +2125,9 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         lamp,
         opts.fwhm_guess_nm,
     )?;
+    if let Some(w) = bow_warning {
+        cal.warnings.insert(0, w);
+    }
     for (e, x) in extra.iter().enumerate() {
         let a = (0..3)
             .map(|c| eval.alpha[c][N_BG + lines.len() + e])

@@ -1,0 +1,179 @@
+"""Independent LVF lamp images beyond the issue-12 geometry (numpy only, no lumifit code), run
+through `lumifit lvf calibrate`: other FWHMs and dispersions, a reversed filter, a black pedestal,
+few rows, an off-range start, weak lines missing from the lamp list, a bowed (quadratic) map,
+passbands that are not Gaussian, saturation, other cameras, 5 % noise and an 8-bit PNG.
+
+    cargo build --release
+    python3 scripts/reference/lvf_robustness.py [--lumifit target/release/lumifit] [--cases base,fwhm15]
+
+Prints a markdown table: the signed error of the fitted map at the true 400 / 700 nm positions,
+the reported σ there, the background model chosen and the first warning.
+
+Images (unless a case says otherwise): 1200 x 160 px, lambda(px) = 372.3 + 0.3117 px (px = column,
+pixel centres at integers), passband FWHM 25 nm, Gaussian, the Canon 5D Mark II of the Jiang et al.
+2013 database (../shared/data/camera/jiang2013_camspec_all_cameras_long.csv, read in place, linear
+interpolation, zero outside its range), NIST Hg I lines 404.656, 407.783, 435.833, 546.074, 576.960,
+579.066 nm (relative powers 0.40, 0.04, 1.00, 0.90, 0.20, 0.22), a flat continuum scaled to 5 % of
+the 546 nm blob's peak (integrated on a 0.25 nm grid through passband and camera), quadratic
+vignetting 1 - 0.2 r^2, Gaussian noise 1 % of the peak (numpy PCG64, seed 1), brightest pixel 0.8
+of full scale, 16-bit RGB PNG written with zlib + struct. Lines are deltas averaged over each
+pixel's wavelength span: exactly with math.erf for the Gaussian; for the generalised normal
+exp(-ln2 |2 d / FWHM|^beta) by the trapezoid rule on 41 points per pixel.
+"""
+
+import argparse
+import json
+import math
+import struct
+import subprocess
+import sys
+import tempfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+DB = ROOT.parent / "shared" / "data" / "camera" / "jiang2013_camspec_all_cameras_long.csv"
+HG = [(404.656, 0.40), (407.783, 0.04), (435.833, 1.00), (546.074, 0.90), (576.960, 0.20), (579.066, 0.22)]
+# weak Hg I lines the lamp list of `--lamp hg` does not carry
+HG_WEAK = [(491.607, 0.02), (623.437, 0.015), (690.752, 0.01)]
+BOW_C2 = 5e-6  # lambda += 5e-6 px^2: the middle lies 1.80 nm below the chord through the ends
+
+CASES = [
+    ("base", {}, []),
+    ("FWHM 15 nm", {"fwhm": 15}, []),
+    ("FWHM 40 nm", {"fwhm": 40}, []),
+    ("0.2 nm/px, 1800 px", {"W": 1800, "map": [380.0, 0.2]}, []),
+    ("0.6 nm/px, 600 px", {"W": 600, "map": [362.0, 0.6]}, []),
+    ("red to blue (decreasing)", {"map": [746.0, -0.3117]}, []),
+    ("black pedestal 2 % of the peak", {"pedestal": 0.016}, []),
+    ("40 rows", {"H": 40}, []),
+    ("400 nm at px 32", {"map": [390.0, 0.3117]}, []),
+    ("weak Hg lines not in the list", {"weak_lines": True}, []),
+    ("bow 1.8 nm", {"map": [372.3, 0.3117, BOW_C2]}, []),
+    ("bow 1.8 nm", {"map": [372.3, 0.3117, BOW_C2]}, ["--map", "auto"]),
+    ("bow 1.8 nm, no continuum", {"map": [372.3, 0.3117, BOW_C2], "continuum": 0}, []),
+    ("bow 1.8 nm, no continuum", {"map": [372.3, 0.3117, BOW_C2], "continuum": 0}, ["--map", "auto"]),
+    ("passband beta 1.5", {"beta": 1.5}, []),
+    ("passband beta 1.5", {"beta": 1.5}, ["--passband", "gennorm"]),
+    ("passband beta 1.8", {"beta": 1.8}, []),
+    ("passband beta 1.8", {"beta": 1.8}, ["--passband", "gennorm"]),
+    ("passband beta 2.2", {"beta": 2.2}, []),
+    ("passband beta 2.2", {"beta": 2.2}, ["--passband", "gennorm"]),
+    ("passband beta 2.5", {"beta": 2.5}, []),
+    ("passband beta 2.5", {"beta": 2.5}, ["--passband", "gennorm"]),
+    ("passband beta 2.5, no continuum or vignetting", {"beta": 2.5, "continuum": 0, "vignetting": 0}, []),
+    ("passband beta 2.5, no continuum or vignetting", {"beta": 2.5, "continuum": 0, "vignetting": 0}, ["--passband", "gennorm"]),
+    ("passband beta 4 (flat top)", {"beta": 4.0}, []),
+    ("passband beta 4 (flat top)", {"beta": 4.0}, ["--passband", "gennorm"]),
+    ("Gaussian passband", {}, ["--passband", "gennorm"]),
+    ("546 nm blob saturated (peak 1.3 x full scale)", {"peak": 1.3}, []),
+    ("Nikon D700", {"camera": "Nikon D700"}, []),
+    ("Nokia N900", {"camera": "Nokia N900"}, []),
+    ("5 % noise", {"noise": 0.05}, []),
+    ("dim: peak 0.05 of full scale", {"peak": 0.05}, []),
+    ("8-bit PNG of linear values", {"bits": 8}, []),
+]
+
+
+def camera(name):
+    rows = [r.split(",") for r in DB.read_text().splitlines()[1:] if r.startswith(name + ",")]
+    d = np.array([[float(v) for v in r[1:]] for r in rows])
+    return d[:, 0], d[:, 1:4]
+
+
+def png(path, img, bits):
+    h, w, _ = img.shape
+    dtype = ">u2" if bits == 16 else np.uint8
+    raw = b"".join(b"\x00" + img[y].astype(dtype).tobytes() for y in range(h))
+
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+
+    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, bits, 2, 0, 0, 0))
+                           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+
+
+def render(p, out):
+    W, H = p.get("W", 1200), p.get("H", 160)
+    c = p.get("map", [372.3, 0.3117])
+    fwhm = p.get("fwhm", 25.0)
+    sg = fwhm / math.sqrt(8 * math.log(2))
+    beta = p.get("beta")
+    wl, S = camera(p.get("camera", "Canon 5DMarkII"))
+    lam = lambda px: sum(ci * px**i for i, ci in enumerate(c))
+    le = lam(np.arange(W + 1) - 0.5)
+    lo, hi = np.minimum(le[:-1], le[1:]), np.maximum(le[:-1], le[1:])
+
+    def blob(l0):  # mean passband over each pixel's wavelength span
+        if beta is None:
+            e = np.vectorize(math.erf)
+            return (0.5 * (e((hi - l0) / (sg * 2**0.5)) - e((lo - l0) / (sg * 2**0.5)))) * sg * math.sqrt(2 * math.pi) / (hi - lo)
+        f = np.linspace(0, 1, 41)[:, None]
+        x = lo[None, :] + f * (hi - lo)[None, :]
+        return np.trapezoid(np.exp(-math.log(2) * np.abs(2 * (x - l0) / fwhm) ** beta), f[:, 0], axis=0)
+
+    prof = np.zeros((W, 3))
+    for l0, pw in HG + (HG_WEAK if p.get("weak_lines") else []):
+        s = np.array([np.interp(l0, wl, S[:, k], left=0, right=0) for k in range(3)])
+        prof += pw * blob(l0)[:, None] * s[None, :]
+    cont = p.get("continuum", 0.05)
+    if cont > 0:
+        g = np.arange(300, 800, 0.25)
+        Sg = np.stack([np.interp(g, wl, S[:, k], left=0, right=0) for k in range(3)], -1)
+        mid = lam(np.arange(W))
+        d = g[None, :] - mid[:, None]
+        T = np.exp(-0.5 * (d / sg) ** 2) if beta is None else np.exp(-math.log(2) * np.abs(2 * d / fwhm) ** beta)
+        cp = np.trapezoid(T[:, :, None] * Sg[None, :, :], g, axis=1)
+        i546 = np.argmin(abs(mid - 546.074))
+        prof += cp * cont * prof[i546].max() / cp.max()
+    hx, hy = (W - 1) / 2, (H - 1) / 2
+    x, y = np.arange(W) - hx, np.arange(H) - hy
+    r2 = (x[None, :] ** 2 + y[:, None] ** 2) / (hx**2 + hy**2)
+    img = (1 - p.get("vignetting", 0.2) * r2)[:, :, None] * prof[None, :, :]
+    peak = p.get("peak", 0.8)
+    img = img / img.max() * peak
+    rng = np.random.default_rng(p.get("seed", 1))
+    img = np.clip(img + p.get("pedestal", 0.0) + p.get("noise", 0.01) * peak * rng.standard_normal(img.shape), 0, 1)
+    bits = p.get("bits", 16)
+    png(out, np.round(img * (2**bits - 1)), bits)
+    xs = np.linspace(-50, W + 50, 400001)
+    v = lam(xs)
+    return {t: float(xs[np.argmin(abs(v - t))]) for t in (400, 700)}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lumifit", default=str(ROOT / "target" / "release" / "lumifit"))
+    ap.add_argument("--cases", help="comma-separated case indices (default all)")
+    a = ap.parse_args()
+    sel = None if not a.cases else {int(i) for i in a.cases.split(",")}
+    print("| # | image | options | error at 400 / 700 nm | σ 400 / 700 | background | first warning |")
+    print("|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, (name, p, extra) in enumerate(CASES):
+            if sel is not None and i not in sel:
+                continue
+            img = Path(tmp) / f"case{i}.png"
+            truth = render(p, img)
+            out = Path(tmp) / f"case{i}.json"
+            r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", "x", "--out", str(out), *extra],
+                               capture_output=True, text=True)
+            opts = " ".join(extra) or "defaults"
+            if r.returncode != 0:
+                print(f"| {i} | {name} | {opts} | exit {r.returncode}: {r.stderr.strip().splitlines()[-1][:120]} | | | |", flush=True)
+                continue
+            cal = json.loads(out.read_text())
+            c = cal["map"]["coefficients"]
+            lam = lambda px: sum(ci * px**k for k, ci in enumerate(c))
+            e4, e7 = lam(truth[400]) - 400, lam(truth[700]) - 700
+            w = cal.get("warnings", [])
+            first = (w[0][:90] + "…") if w else ""
+            beta = cal.get("passband", {}).get("beta")
+            model = cal["background"]["model"] + (f", β {beta:.2f}" if beta else "") + (", quadratic map" if cal["map"]["kind"] == "quadratic" else "")
+            print(f"| {i} | {name} | {opts} | {e4:+.3f} / {e7:+.3f} | {cal['sigma_nm_at_400']:.3f} / {cal['sigma_nm_at_700']:.3f} | {model} | {first} |", flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
