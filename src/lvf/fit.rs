@@ -1190,7 +1190,8 @@ pub fn calibrate_whole_profile(
         }
         return Ok(cal);
     }
-    type Best = Option<(LvfCalibration, f64, f64)>;
+    // (BIC, β) of the best exponent so far
+    type Best = Option<(f64, f64)>;
     let mut tried: Vec<(f64, f64)> = Vec::new();
     let mut best: Best = None;
     let mut first_err: Option<Error> = None;
@@ -1198,10 +1199,10 @@ pub fn calibrate_whole_profile(
                     best: &mut Best,
                     tried: &mut Vec<(f64, f64)>,
                     first_err: &mut Option<Error>| match fit_at(beta) {
-        Ok((cal, bic)) => {
+        Ok((_, bic)) => {
             tried.push((beta, bic));
-            if best.as_ref().is_none_or(|b| bic < b.1) {
-                *best = Some((cal, bic, beta));
+            if best.as_ref().is_none_or(|b| bic < b.0) {
+                *best = Some((bic, beta));
             }
         }
         Err(e) => {
@@ -1214,7 +1215,7 @@ pub fn calibrate_whole_profile(
     // Brent's method (the crate's one 1-D minimiser, `math::minimize::brent_min` on argmin) in
     // ln β between the best grid point's neighbours: the BIC over β is sharply peaked (on a
     // β = 2.2 image −43,308 at 2.0, −50,529 at 2.25, −42,189 at 2.5)
-    if let Some(b) = best.as_ref().map(|b| b.2) {
+    if let Some(b) = best.as_ref().map(|b| b.1) {
         let i = PASSBAND_EXPONENTS.iter().position(|&x| x == b).unwrap_or(0);
         let lo = PASSBAND_EXPONENTS[i.saturating_sub(1)].ln();
         let hi = PASSBAND_EXPONENTS[(i + 1).min(PASSBAND_EXPONENTS.len() - 1)].ln();
@@ -1236,7 +1237,7 @@ pub fn calibrate_whole_profile(
         );
         (best, tried, first_err) = state.into_inner();
     }
-    let Some((_, _, beta)) = best else {
+    let Some((_, beta)) = best else {
         return Err(first_err.unwrap_or_else(|| Error::Numerical {
             what: "LVF whole-profile fit".into(),
             reason: "no passband exponent could be fitted".into(),
@@ -1573,18 +1574,9 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
                 .find(|(p, _)| !p.terms.has_continuum() && p.terms.falloff_degree == 0);
             if let Some((lpr, lfit)) = offset_only {
                 let n_extra = chosen_pr.lines().len().saturating_sub(lines.len());
-                let qpr = lpr.with(3, lpr.terms);
-                let quad = qpr.levenberg_marquardt(&qpr.theta_from(lpr, &lfit.theta));
-                let qbic = qpr.bic(&quad) + n_extra as f64 * ln_n;
-                let dof2 = n_obs
-                    .saturating_sub(qpr.n_theta() + quad.eval.n_active)
-                    .max(1) as f64;
-                let f = (lfit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
-                let t_a2 = covariance(&quad.jac, quad.eval.sse, dof2)
-                    .as_ref()
-                    .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
-                    .unwrap_or(0.0);
-                if qbic < best_bic - 10.0 && f > 10.83 && t_a2.abs() > 3.0 {
+                let (qpr, quad, qbic, f, t_a2) =
+                    quadratic_of(lpr, lfit, n_extra as f64 * ln_n, n_obs);
+                if qbic < best_bic - 10.0 && quadratic_justified(f, t_a2) {
                     let moved = [-1.0, 1.0].map(|u| {
                         qpr.lambda(&quad.theta, u) - chosen_pr.lambda(&chosen_fit.theta, u)
                     });
@@ -1620,28 +1612,13 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
             // smallest BIC wins; a quadratic map must also pass the F-test (p < 0.001) and
             // |a2| > 3σ against the same background with a linear map.
             let n_extra = chosen_pr.lines().len().saturating_sub(lines.len());
-            let quads: Vec<(Problem, Fitted, f64, f64, f64)> =
-                std::iter::once((&chosen_pr, &chosen_fit))
-                    .chain(others.iter().map(|(p, f, _)| (p, f)))
-                    .collect::<Vec<_>>()
-                    .par_iter()
-                    .map(|&(lpr, lfit)| {
-                        let qpr = lpr.with(3, lpr.terms);
-                        let quad = qpr.levenberg_marquardt(&qpr.theta_from(lpr, &lfit.theta));
-                        let bic = qpr.bic(&quad) + n_extra as f64 * ln_n;
-                        let dof2 = n_obs
-                            .saturating_sub(qpr.n_theta() + quad.eval.n_active)
-                            .max(1) as f64;
-                        let f =
-                            (lfit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
-                        let t_a2 = covariance(&quad.jac, quad.eval.sse, dof2)
-                            .as_ref()
-                            .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
-                            .unwrap_or(0.0);
-                        (qpr, quad, bic, f, t_a2)
-                    })
-                    .collect();
-            let justified = |q: &(Problem, Fitted, f64, f64, f64)| q.3 > 10.83 && q.4.abs() > 3.0;
+            let quads: Vec<QuadraticFit> = std::iter::once((&chosen_pr, &chosen_fit))
+                .chain(others.iter().map(|(p, f, _)| (p, f)))
+                .collect::<Vec<_>>()
+                .par_iter()
+                .map(|&(lpr, lfit)| quadratic_of(lpr, lfit, n_extra as f64 * ln_n, n_obs))
+                .collect();
+            let justified = |q: &QuadraticFit| quadratic_justified(q.3, q.4);
             let requested = if opts.map == MapChoice::Quadratic {
                 "quadratic"
             } else {
@@ -2414,6 +2391,38 @@ fn fit_candidates<'a>(
         per_start,
         others: fitted.into_iter().map(|(p, f, b, _)| (p, f, b)).collect(),
     }
+}
+
+/// A background's fit with a quadratic map: the problem, the fit, its BIC, and against the same
+/// background with a linear map the F statistic and a2 over its standard error.
+type QuadraticFit<'a> = (Problem<'a>, Fitted, f64, f64, f64);
+
+/// Refits `lpr`'s background with a quadratic map from its linear-map fit; `bic_extra` is added
+/// to the BIC (unlisted lines' wavelengths), `n_obs` the number of profile values.
+fn quadratic_of<'a>(
+    lpr: &Problem<'a>,
+    lfit: &Fitted,
+    bic_extra: f64,
+    n_obs: usize,
+) -> QuadraticFit<'a> {
+    let qpr = lpr.with(3, lpr.terms);
+    let quad = qpr.levenberg_marquardt(&qpr.theta_from(lpr, &lfit.theta));
+    let bic = qpr.bic(&quad) + bic_extra;
+    let dof2 = n_obs
+        .saturating_sub(qpr.n_theta() + quad.eval.n_active)
+        .max(1) as f64;
+    let f = (lfit.eval.sse - quad.eval.sse) / (quad.eval.sse / dof2).max(1e-300);
+    let t_a2 = covariance(&quad.jac, quad.eval.sse, dof2)
+        .as_ref()
+        .map(|c| quad.theta[2] / c[(2, 2)].max(1e-300).sqrt())
+        .unwrap_or(0.0);
+    (qpr, quad, bic, f, t_a2)
+}
+
+/// A quadratic map is justified against the linear one with the same background: F-test
+/// p < 0.001 (F(1, ∞) at p = 0.001 is 10.83) and |a2| > 3σ.
+fn quadratic_justified(f: f64, t_a2: f64) -> bool {
+    f > 10.83 && t_a2.abs() > 3.0
 }
 
 /// ∇_θ λ(u) for a map of `n_map` coefficients in u (θ's first entries) and `p` parameters.
