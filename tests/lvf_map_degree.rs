@@ -7,13 +7,16 @@
 //! gained nothing (F 0.6): the map was 2.2 nm off at 700 nm with σ 0.08 nm. With the linear map
 //! requested (the default) such an image now draws a warning and a σ that covers the bow.
 
-use lumifit::lvf::synth::{default_camera, Continuum, ContinuumShape, VignettingShape};
+use lumifit::lvf::synth::{default_camera, ContinuumShape, VignettingShape};
 use lumifit::lvf::{
-    calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
-    LvfCalibration, LvfSynthSpec, MapChoice, MapKind,
+    render_lvf, CameraResponse, FitOptions, Lamp, LvfCalibration, LvfSynthSpec, MapChoice, MapKind,
 };
 
-/// The issue-12 geometry with a bow of `bow_nm`, the default camera, 1 % noise.
+mod common;
+use common::lvf_geometry::calibrated;
+
+/// The issue-12 geometry with a bow of `bow_nm`, the default camera, 1 % noise, quadratic
+/// vignetting.
 fn spec(
     lamp: Lamp,
     bow_nm: f64,
@@ -22,35 +25,16 @@ fn spec(
     seed: u64,
 ) -> LvfSynthSpec {
     LvfSynthSpec {
-        width: 1200,
-        height: 160,
-        axis: Axis::X,
-        nm_at_start: 372.3,
-        nm_per_px: 0.3117,
         bow_nm,
-        passband: lumifit::lvf::Passband::Gaussian,
-        fwhm_nm: 25.0,
-        lamp,
-        camera: default_camera().unwrap(),
-        noise: 0.01,
-        vignetting,
-        vignetting_shape: VignettingShape::Quadratic,
-        continuum: continuum.map(|(shape, fraction)| Continuum { shape, fraction }),
-        seed,
+        ..common::lvf_geometry::spec(
+            lamp,
+            default_camera().unwrap(),
+            0.01,
+            (VignettingShape::Quadratic, vignetting),
+            continuum,
+            seed,
+        )
     }
-}
-
-/// The calibration of a rendered image and its signed λ errors at the true 400 and 700 nm
-/// positions.
-fn calibrated(s: &LvfSynthSpec, opts: &FitOptions) -> (LvfCalibration, [f64; 2]) {
-    let (frame, truth) = render_lvf(s).unwrap();
-    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-    let cal = calibrate_whole_profile(&profile, &s.lamp, opts).unwrap();
-    let e = [
-        cal.map.eval(truth.px_at_400) - 400.0,
-        cal.map.eval(truth.px_at_700) - 700.0,
-    ];
-    (cal, e)
 }
 
 /// The background model the fit chose.

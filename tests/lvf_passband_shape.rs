@@ -6,44 +6,26 @@
 //! the shape. Geometry of docs/performance.md (1200×160 px, 372.3 nm + 0.3117 nm/px, FWHM 25 nm),
 //! the project's default camera, 10 % flat continuum, quadratic fall-off 0.3, 1 % noise.
 
-use lumifit::lvf::synth::{default_camera, Continuum, ContinuumShape, VignettingShape};
-use lumifit::lvf::{
-    calibrate_whole_profile, extract_profile, render_lvf, Axis, FitOptions, Lamp, LvfCalibration,
-    LvfSynthSpec, Passband,
-};
+use lumifit::lvf::synth::{default_camera, ContinuumShape, VignettingShape};
+use lumifit::lvf::{render_lvf, FitOptions, Lamp, LvfCalibration, LvfSynthSpec, Passband};
 
+mod common;
+use common::lvf_geometry::calibrated;
+
+/// The issue-12 geometry with `passband`: Hg, default camera, 10 % flat continuum, quadratic
+/// fall-off 0.3, 1 % noise.
 fn spec(passband: Passband, seed: u64) -> LvfSynthSpec {
     LvfSynthSpec {
-        width: 1200,
-        height: 160,
-        axis: Axis::X,
-        nm_at_start: 372.3,
-        nm_per_px: 0.3117,
-        bow_nm: 0.0,
-        fwhm_nm: 25.0,
         passband,
-        lamp: Lamp::mercury(),
-        camera: default_camera().unwrap(),
-        noise: 0.01,
-        vignetting: 0.3,
-        vignetting_shape: VignettingShape::Quadratic,
-        continuum: Some(Continuum {
-            shape: ContinuumShape::Flat,
-            fraction: 0.10,
-        }),
-        seed,
+        ..common::lvf_geometry::spec(
+            Lamp::mercury(),
+            default_camera().unwrap(),
+            0.01,
+            (VignettingShape::Quadratic, 0.3),
+            Some((ContinuumShape::Flat, 0.10)),
+            seed,
+        )
     }
-}
-
-fn calibrated(s: &LvfSynthSpec, opts: &FitOptions) -> (LvfCalibration, [f64; 2]) {
-    let (frame, truth) = render_lvf(s).unwrap();
-    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-    let cal = calibrate_whole_profile(&profile, &s.lamp, opts).unwrap();
-    let e = [
-        cal.map.eval(truth.px_at_400) - 400.0,
-        cal.map.eval(truth.px_at_700) - 700.0,
-    ];
-    (cal, e)
 }
 
 fn fitted_shape() -> FitOptions {

@@ -2,7 +2,10 @@
 //! passband FWHM 25 nm), shared by the LVF tests that measure against the issue's bounds.
 
 use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
-use lumifit::lvf::{Axis, Lamp, LvfSynthSpec};
+use lumifit::lvf::{
+    calibrate_whole_profile, extract_profile, render_lvf, Axis, FitOptions, Lamp, LvfCalibration,
+    LvfSynthSpec,
+};
 use lumifit::spectrum::MultiSpectrum;
 
 /// The issue-12 image of `lamp` through `camera`: noise fraction, vignetting (shape, amount),
@@ -32,4 +35,17 @@ pub fn spec(
         continuum: continuum.map(|(shape, fraction)| Continuum { shape, fraction }),
         seed,
     }
+}
+
+/// The calibration of a rendered image (its own lamp, the whole image as ROI) and its signed λ
+/// errors at the true 400 and 700 nm positions.
+pub fn calibrated(s: &LvfSynthSpec, opts: &FitOptions) -> (LvfCalibration, [f64; 2]) {
+    let (frame, truth) = render_lvf(s).unwrap();
+    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
+    let cal = calibrate_whole_profile(&profile, &s.lamp, opts).unwrap();
+    let e = [
+        cal.map.eval(truth.px_at_400) - 400.0,
+        cal.map.eval(truth.px_at_700) - 700.0,
+    ];
+    (cal, e)
 }
