@@ -1171,8 +1171,8 @@ pub fn calibrate_whole_profile(
             // least SHAPE_CHECK_SSE_DROP lower (BIC gain = N·ln(SSE₂/SSE_β)), not the few
             // per cent another β wins on a profile that is no lamp of this list at all (a
             // blackbody frame with --lamp hg: 4 %; a β = 4 passband: 31 %, β = 2.2: 87 %)
-            let n_obs = 3.0 * cal.diagnostics["profile_points"].as_f64().unwrap_or(0.0);
-            let sse_drop = 1.0 - (-gain / n_obs.max(1.0)).exp();
+            let n_obs = (3 * profile.px.len()).max(1) as f64;
+            let sse_drop = 1.0 - (-gain / n_obs).exp();
             cal.diagnostics["passband_shape_check"] = serde_json::json!({
                 "bic_at_beta_1_75_2_2_25": [lo, mid, hi],
                 "sse_drop": sse_drop,

@@ -169,7 +169,8 @@ pub fn calibrate_peaks(
         map,
         fwhm_nm: opts.fwhm_guess_nm,
         fwhm_sigma_nm: 0.0,
-        passband: crate::lvf::Passband::Gaussian.report(),
+        // the shape the user gave, for the bands the next commands draw from lvf.json
+        passband: opts.passband.report(),
         rms_residual_nm: rms,
         rms_residual_relative: None,
         sigma_nm_at_400: 0.0,
