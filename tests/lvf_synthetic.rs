@@ -17,6 +17,7 @@ fn spec(lamp: Lamp, noise: f64, seed: u64) -> LvfSynthSpec {
         nm_at_start: 380.0,
         nm_per_px: 0.3,
         bow_nm: 0.0,
+        tilt_deg: 0.0,
         passband: lumifit::lvf::Passband::Gaussian,
         fwhm_nm: 25.0,
         lamp,

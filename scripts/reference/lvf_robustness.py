@@ -1,7 +1,9 @@
 """Independent LVF lamp images beyond the issue-12 geometry (numpy only, no lumifit code), run
 through `lumifit lvf calibrate`: other FWHMs and dispersions, a reversed filter, a black pedestal,
 few rows, an off-range start, weak lines missing from the lamp list, a bowed (quadratic) map,
-passbands that are not Gaussian, saturation, other cameras, 5 % noise and an 8-bit PNG.
+passbands that are not Gaussian, saturation, other cameras, 5 % noise, an 8-bit PNG, a filter
+rotated in the image (slanted iso-wavelength lines), an Hg-Ar lamp's unlisted Ar I lines, dust
+shadows and hot pixels.
 
     cargo build --release
     python3 scripts/reference/lvf_robustness.py [--lumifit target/release/lumifit] [--cases base,fwhm15]
@@ -18,7 +20,11 @@ the 546 nm blob's peak (integrated on a 0.25 nm grid through passband and camera
 vignetting 1 - 0.2 r^2, Gaussian noise 1 % of the peak (numpy PCG64, seed 1), brightest pixel 0.8
 of full scale, 16-bit RGB PNG written with zlib + struct. Lines are deltas averaged over each
 pixel's wavelength span: exactly with math.erf for the Gaussian; for the generalised normal
-exp(-ln2 |2 d / FWHM|^beta) by the trapezoid rule on 41 points per pixel.
+exp(-ln2 |2 d / FWHM|^beta) by the trapezoid rule on 41 points per pixel. A rotated filter: row y
+sees the map at px + (y - (H-1)/2) tan(angle), its profile read off a 0.05 px grid by linear
+interpolation; the truth is the middle row's map. Dust: soft-edged dark discs (1 - depth
+exp(-(r/R)^4)) multiplying the image; hot pixels: 200 pixels of one channel raised by 0.1-0.5 of
+full scale (a fixed generator, seed 99).
 """
 
 import argparse
@@ -38,6 +44,10 @@ DB = ROOT.parent / "shared" / "data" / "camera" / "jiang2013_camspec_all_cameras
 HG = [(404.656, 0.40), (407.783, 0.04), (435.833, 1.00), (546.074, 0.90), (576.960, 0.20), (579.066, 0.22)]
 # weak Hg I lines the lamp list of `--lamp hg` does not carry
 HG_WEAK = [(491.607, 0.02), (623.437, 0.015), (690.752, 0.01)]
+# Ar I lines of an Hg-Ar pen lamp within the filter's range (NIST; powers relative to Hg 435.8)
+AR = [(696.543, 0.10), (706.722, 0.06), (714.704, 0.02), (727.294, 0.04), (738.398, 0.08)]
+# dust specks on the filter: (centre x px, centre y px, radius px, depth) in the base geometry
+DUST = [(520.0, 60.0, 14.0, 0.35), (560.0, 120.0, 10.0, 0.35), (930.0, 90.0, 18.0, 0.35)]
 BOW_C2 = 5e-6  # lambda += 5e-6 px^2: the middle lies 1.80 nm below the chord through the ends
 
 CASES = [
@@ -74,6 +84,11 @@ CASES = [
     ("5 % noise", {"noise": 0.05}, []),
     ("dim: peak 0.05 of full scale", {"peak": 0.05}, []),
     ("8-bit PNG of linear values", {"bits": 8}, []),
+    ("filter rotated 1 deg", {"rotate_deg": 1.0}, []),
+    ("filter rotated 3 deg", {"rotate_deg": 3.0}, []),
+    ("Hg-Ar lamp: Ar I lines not in the list", {"argon": True}, []),
+    ("dust shadows (3 specks, 35 % deep)", {"dust": True}, []),
+    ("hot pixels (200, 0.1-0.5 of full scale)", {"hot": True}, []),
 ]
 
 
@@ -103,43 +118,77 @@ def render(p, out):
     beta = p.get("beta")
     wl, S = camera(p.get("camera", "Canon 5DMarkII"))
     lam = lambda px: sum(ci * px**i for i, ci in enumerate(c))
-    le = lam(np.arange(W + 1) - 0.5)
-    lo, hi = np.minimum(le[:-1], le[1:]), np.maximum(le[:-1], le[1:])
+    lines = HG + (HG_WEAK if p.get("weak_lines") else []) + (AR if p.get("argon") else [])
 
-    def blob(l0):  # mean passband over each pixel's wavelength span
-        if beta is None:
-            e = np.vectorize(math.erf)
-            return (0.5 * (e((hi - l0) / (sg * 2**0.5)) - e((lo - l0) / (sg * 2**0.5)))) * sg * math.sqrt(2 * math.pi) / (hi - lo)
-        f = np.linspace(0, 1, 41)[:, None]
-        x = lo[None, :] + f * (hi - lo)[None, :]
-        return np.trapezoid(np.exp(-math.log(2) * np.abs(2 * (x - l0) / fwhm) ** beta), f[:, 0], axis=0)
+    def profile(xs):  # the lines averaged over each pixel's span [x - 0.5, x + 0.5]
+        le0, le1 = lam(xs - 0.5), lam(xs + 0.5)
+        lo, hi = np.minimum(le0, le1), np.maximum(le0, le1)
 
-    prof = np.zeros((W, 3))
-    for l0, pw in HG + (HG_WEAK if p.get("weak_lines") else []):
-        s = np.array([np.interp(l0, wl, S[:, k], left=0, right=0) for k in range(3)])
-        prof += pw * blob(l0)[:, None] * s[None, :]
-    cont = p.get("continuum", 0.05)
-    if cont > 0:
+        def blob(l0):  # mean passband over each pixel's wavelength span
+            if beta is None:
+                e = np.vectorize(math.erf)
+                return (0.5 * (e((hi - l0) / (sg * 2**0.5)) - e((lo - l0) / (sg * 2**0.5)))) * sg * math.sqrt(2 * math.pi) / (hi - lo)
+            f = np.linspace(0, 1, 41)[:, None]
+            x = lo[None, :] + f * (hi - lo)[None, :]
+            return np.trapezoid(np.exp(-math.log(2) * np.abs(2 * (x - l0) / fwhm) ** beta), f[:, 0], axis=0)
+
+        out = np.zeros((len(xs), 3))
+        for l0, pw in lines:
+            s = np.array([np.interp(l0, wl, S[:, k], left=0, right=0) for k in range(3)])
+            out += pw * blob(l0)[:, None] * s[None, :]
+        return out
+
+    def continuum(xs):  # a flat spectrum through passband and camera at each pixel's centre
         g = np.arange(300, 800, 0.25)
         Sg = np.stack([np.interp(g, wl, S[:, k], left=0, right=0) for k in range(3)], -1)
-        mid = lam(np.arange(W))
-        d = g[None, :] - mid[:, None]
+        d = g[None, :] - lam(xs)[:, None]
         T = np.exp(-0.5 * (d / sg) ** 2) if beta is None else np.exp(-math.log(2) * np.abs(2 * d / fwhm) ** beta)
-        cp = np.trapezoid(T[:, :, None] * Sg[None, :, :], g, axis=1)
-        i546 = np.argmin(abs(mid - 546.074))
-        prof += cp * cont * prof[i546].max() / cp.max()
+        return np.trapezoid(T[:, :, None] * Sg[None, :, :], g, axis=1)
+
+    px = np.arange(W, dtype=float)
+    prof = profile(px)
+    cont = p.get("continuum", 0.05)
+    scale = cont * prof[np.argmin(abs(lam(px) - 546.074))].max()
+    hx, hy = (W - 1) / 2, (H - 1) / 2
+    t = math.tan(math.radians(p.get("rotate_deg", 0.0)))
+    if t == 0.0:
+        if cont > 0:
+            cp = continuum(px)
+            prof = prof + cp * scale / cp.max()
+        rows = np.broadcast_to(prof[None, :, :], (H, W, 3))
+    else:
+        # the iso-wavelength lines slant: row y sees the map at px + (y - hy) tan(theta); the
+        # truth is the map of the middle row, which the mean over all rows is symmetric about
+        fine = np.arange(-60.0, W + 60.0, 0.05)
+        pf = profile(fine)
+        if cont > 0:
+            coarse = np.arange(-60.0, W + 61.0)
+            cc = continuum(coarse)
+            cm = continuum(px).max()
+            pf = pf + np.stack([np.interp(fine, coarse, cc[:, k]) for k in range(3)], -1) * scale / cm
+        rows = np.stack([np.stack([np.interp(px + (y - hy) * t, fine, pf[:, k]) for k in range(3)], -1)
+                         for y in range(H)])
     hx, hy = (W - 1) / 2, (H - 1) / 2
     x, y = np.arange(W) - hx, np.arange(H) - hy
     r2 = (x[None, :] ** 2 + y[:, None] ** 2) / (hx**2 + hy**2)
-    img = (1 - p.get("vignetting", 0.2) * r2)[:, :, None] * prof[None, :, :]
+    shade = 1 - p.get("vignetting", 0.2) * r2
+    if p.get("dust"):  # soft-edged dark discs: dust on the filter, out of focus
+        for dx, dy, rad, depth in DUST:
+            rr = np.hypot(np.arange(W)[None, :] - dx, np.arange(H)[:, None] - dy) / rad
+            shade = shade * (1 - depth * np.exp(-rr**4))
+    img = shade[:, :, None] * rows
     peak = p.get("peak", 0.8)
     img = img / img.max() * peak
     rng = np.random.default_rng(p.get("seed", 1))
-    img = np.clip(img + p.get("pedestal", 0.0) + p.get("noise", 0.01) * peak * rng.standard_normal(img.shape), 0, 1)
+    img = img + p.get("pedestal", 0.0) + p.get("noise", 0.01) * peak * rng.standard_normal(img.shape)
+    if p.get("hot"):  # hot pixels: a fixed extra level in one channel of 200 random pixels
+        hot = np.random.default_rng(99)
+        img[hot.integers(0, H, 200), hot.integers(0, W, 200), hot.integers(0, 3, 200)] += hot.uniform(0.1, 0.5, 200)
+    img = np.clip(img, 0, 1)
     bits = p.get("bits", 16)
     png(out, np.round(img * (2**bits - 1)), bits)
     xs = np.linspace(-50, W + 50, 400001)
-    v = lam(xs)
+    v = lam(xs)  # the middle row's map (a rotated filter's other rows are shifted)
     return {t: float(xs[np.argmin(abs(v - t))]) for t in (400, 700)}
 
 

@@ -261,6 +261,11 @@ pub struct LvfCalibration {
     pub axis: Axis,
     /// ROI `[x, y, w, h]`, input image's pixels.
     pub roi: [usize; 4],
+    /// The slant of the filter's iso-wavelength lines the profile was averaged along
+    /// ([`crate::lvf::profile::Tilt`]); absent: along the rows (columns for axis y). The map
+    /// holds at `reference_px` across the axis; a pixel at `b` sees `map(a + slope·(b − reference_px))`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tilt: Option<crate::lvf::profile::Tilt>,
     /// Lamp name.
     pub lamp: String,
     /// Position → wavelength map.

@@ -2017,6 +2017,7 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         source: profile.source.clone(),
         axis: profile.axis,
         roi: profile.roi,
+        tilt: profile.tilt,
         lamp: lamp.name.clone(),
         map,
         fwhm_nm: fwhm,

@@ -38,7 +38,7 @@ use crate::lvf::background::{estimate_radial_falloff, RadialFalloff};
 use crate::lvf::calibration::LvfCalibration;
 use crate::lvf::fit::{calibrate_whole_profile, FitOptions, Passband};
 use crate::lvf::lamp::Lamp;
-use crate::lvf::profile::{extract_profile, Axis, Profile};
+use crate::lvf::profile::{extract_profile_tilted, Axis, Profile, Tilt};
 use crate::lvf::synth::{sensitivity, ContinuumShape};
 use crate::spectrum::MultiSpectrum;
 
@@ -81,7 +81,8 @@ pub struct FlatField {
 }
 
 impl FlatField {
-    /// Reduces `flat` over `roi`, checking that it fits the lamp photo of size `lamp_size`
+    /// Reduces `flat` over `roi` (along the lamp photo's slanted iso-wavelength lines when
+    /// `tilt` is given, so that both profiles average the same pixels), checking that it fits the lamp photo of size `lamp_size`
     /// (source px).
     ///
     /// # Errors
@@ -93,6 +94,7 @@ impl FlatField {
         lamp_size: (usize, usize),
         roi: [usize; 4],
         axis: Axis,
+        tilt: Option<&Tilt>,
         spectrum: Option<FlatSpectrum>,
     ) -> Result<Self> {
         let name = &flat.name;
@@ -131,7 +133,7 @@ impl FlatField {
                 ),
             ));
         }
-        let profile = extract_profile(flat, roi, axis)?;
+        let profile = extract_profile_tilted(flat, roi, axis, tilt)?;
         let peak = profile
             .values
             .iter()

@@ -13,7 +13,7 @@ use serde::Deserialize;
 
 use crate::lvf::calibration::{Band, LvfCalibration, MapKind, LVF_SCHEMA};
 use crate::lvf::fit::Passband;
-use crate::lvf::profile::{extract_profile, Axis};
+use crate::lvf::profile::{extract_profile_tilted, Axis, Tilt};
 
 /// The part of `lvf.json` the downstream tools read.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,6 +33,9 @@ pub struct LvfGeometry {
     /// The passband's shape (lvf.json's `passband`; Gaussian when absent, as lvf.json files
     /// written before it was recorded).
     pub passband: Passband,
+    /// The slant of the iso-wavelength lines the calibration's profile was averaged along
+    /// (lvf.json's `tilt`; `None`: along the rows); captures are read along the same lines.
+    pub tilt: Option<Tilt>,
     /// The sample bands.
     pub bands: Vec<Band>,
 }
@@ -62,6 +65,8 @@ struct LvfFile {
     fwhm_sigma_nm: f64,
     #[serde(default)]
     passband: Option<serde_json::Value>,
+    #[serde(default)]
+    tilt: Option<Tilt>,
     bands: Vec<Band>,
 }
 
@@ -174,6 +179,7 @@ impl LvfGeometry {
             fwhm_nm,
             fwhm_sigma_nm,
             passband,
+            tilt: f.tilt,
             bands,
         })
     }
@@ -189,6 +195,7 @@ impl LvfGeometry {
             fwhm_sigma_nm: cal.fwhm_sigma_nm,
             // written by Passband::report, so it reads back; Gaussian only for a hand-made value
             passband: Passband::from_report(&cal.passband, source).unwrap_or(Passband::Gaussian),
+            tilt: cal.tilt,
             bands: cal.bands.clone(),
         }
     }
@@ -250,14 +257,15 @@ impl LvfGeometry {
             .collect()
     }
 
-    /// Band readings of a capture through the LVF: the profile across the ROI averaged over
-    /// each band's window.
+    /// Band readings of a capture through the LVF: the profile across the ROI (read along the
+    /// calibration's slanted iso-wavelength lines when it has a `tilt`) averaged over each band's
+    /// window.
     ///
     /// # Errors
-    /// The ROI errors of [`extract_profile`]; [`Error::InvalidArgument`] when a band's window
+    /// The ROI errors of [`crate::lvf::extract_profile`]; [`Error::InvalidArgument`] when a band's window
     /// holds no unsaturated position, or the capture is all zero.
     pub fn band_readings(&self, frame: &RgbFrame) -> Result<BandReadings> {
-        let profile = extract_profile(frame, self.roi, self.axis)?;
+        let profile = extract_profile_tilted(frame, self.roi, self.axis, self.tilt.as_ref())?;
         let mut rgb = Vec::with_capacity(self.bands.len());
         let mut std = Vec::with_capacity(self.bands.len());
         let mut pixels = Vec::with_capacity(self.bands.len());

@@ -49,6 +49,9 @@ pub use fit::{calibrate_whole_profile, FitOptions, MapChoice, Passband, CONTINUU
 pub use geometry::{BandReadings, LvfGeometry};
 pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;
-pub use profile::{extract_profile, Axis, Profile};
+pub use profile::{
+    estimate_tilt, extract_profile, extract_profile_straightened, extract_profile_tilted, Axis,
+    Profile, Tilt, TiltEstimate,
+};
 pub use shared_continuum::CameraResponse;
 pub use synth::{render_lvf, LvfSynthSpec, LvfTruth};

@@ -165,6 +165,7 @@ pub fn calibrate_peaks(
         source: profile.source.clone(),
         axis: profile.axis,
         roi: profile.roi,
+        tilt: profile.tilt,
         lamp: lamp.name.clone(),
         map,
         fwhm_nm: opts.fwhm_guess_nm,

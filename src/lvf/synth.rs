@@ -83,6 +83,10 @@ pub struct LvfSynthSpec {
     /// through its ends, λ(p) = nm_at_start + nm_per_px·p + 4·bow·p·(L−1−p)/(L−1)² (L positions
     /// along the axis); 0 for the linear map of the paper.
     pub bow_nm: f64,
+    /// Slant of the iso-wavelength lines (degrees): the pixel at (along a, across b) sees the
+    /// map at a + tan(tilt)·(b − b₀), b₀ the middle across the axis (where the truth's map
+    /// holds); 0 for a filter square to the sensor.
+    pub tilt_deg: f64,
     /// Passband FWHM (nm).
     pub fwhm_nm: f64,
     /// Passband shape ([`Passband::Gaussian`] unless a generalised normal or a measured shape
@@ -295,6 +299,9 @@ pub struct LvfTruth {
     pub px_at_400: f64,
     /// Position of 700 nm (px).
     pub px_at_700: f64,
+    /// Slant of the iso-wavelength lines (degrees; the map and positions hold at the middle
+    /// across the axis, `(size − 1)/2`).
+    pub tilt_deg: f64,
     /// Lamp name and lines.
     pub lamp: Lamp,
     /// Camera name.
@@ -395,24 +402,32 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         // the root continuous with the linear map's (−c/b) as a → 0
         2.0 * -c / (b + b.signum() * d)
     };
-    let mut profile: Vec<[f64; 3]> = (0..along)
-        .map(|p| {
-            std::array::from_fn(|c| {
-                spec.lamp
-                    .lines
-                    .iter()
-                    .map(|l| {
-                        let mean_g: f64 = GL8
-                            .iter()
-                            .map(|(t, w)| w * g.eval(l.nm - lam_at(p as f64 + t), spec.fwhm_nm))
-                            .sum();
-                        l.relative_power * sensitivity(&spec.camera, c, l.nm) * mean_g
-                    })
-                    .sum()
-            })
+    if !(spec.tilt_deg.is_finite() && spec.tilt_deg.abs() < 45.0) {
+        return Err(Error::invalid(
+            "--tilt",
+            format!(
+                "{} degrees: expected an angle between -45 and 45",
+                spec.tilt_deg
+            ),
+        ));
+    }
+    // the lines at (fractional) position p, each averaged exactly over the pixel's span
+    let lines_at = |p: f64| -> [f64; 3] {
+        std::array::from_fn(|c| {
+            spec.lamp
+                .lines
+                .iter()
+                .map(|l| {
+                    let mean_g: f64 = GL8
+                        .iter()
+                        .map(|(t, w)| w * g.eval(l.nm - lam_at(p + t), spec.fwhm_nm))
+                        .sum();
+                    l.relative_power * sensitivity(&spec.camera, c, l.nm) * mean_g
+                })
+                .sum()
         })
-        .collect();
-    if let Some(cont) = spec.continuum.filter(|c| c.fraction > 0.0) {
+    };
+    let continuum = spec.continuum.filter(|c| c.fraction > 0.0).map(|cont| {
         let grid: Vec<f64> = (360..=830).map(f64::from).collect();
         let w: Vec<[f64; 3]> = grid
             .iter()
@@ -420,32 +435,71 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
                 std::array::from_fn(|c| cont.shape.value(l) * sensitivity(&spec.camera, c, l))
             })
             .collect();
-        let cp: Vec<[f64; 3]> = (0..along)
-            .map(|p| {
-                let lc = lam_at(p as f64);
-                let mut s = [0.0; 3];
-                for (l, wl) in grid.iter().zip(&w) {
-                    let gi = g.eval(l - lc, spec.fwhm_nm);
-                    if gi > 0.0 {
-                        for c in 0..3 {
-                            s[c] += wl[c] * gi;
-                        }
+        (cont, grid, w)
+    });
+    // the continuum through the passband at (fractional) position p
+    let continuum_at = |p: f64| -> [f64; 3] {
+        let mut s = [0.0; 3];
+        if let Some((_, grid, w)) = &continuum {
+            let lc = lam_at(p);
+            for (l, wl) in grid.iter().zip(w) {
+                let gi = g.eval(l - lc, spec.fwhm_nm);
+                if gi > 0.0 {
+                    for c in 0..3 {
+                        s[c] += wl[c] * gi;
                     }
                 }
-                s
-            })
-            .collect();
+            }
+        }
+        s
+    };
+    let mut profile: Vec<[f64; 3]> = (0..along).map(|p| lines_at(p as f64)).collect();
+    // the continuum's scale: a fraction of the brightest line blob of the square (middle) row
+    let mut k_cont = 0.0;
+    if let Some((cont, _, _)) = &continuum {
+        let cp: Vec<[f64; 3]> = (0..along).map(|p| continuum_at(p as f64)).collect();
         let lmax = profile.iter().flatten().cloned().fold(0.0, f64::max);
         let cmax = cp.iter().flatten().cloned().fold(0.0, f64::max);
         if cmax > 0.0 && lmax > 0.0 {
-            let k = cont.fraction * lmax / cmax;
+            k_cont = cont.fraction * lmax / cmax;
             for (pp, cc) in profile.iter_mut().zip(&cp) {
                 for c in 0..3 {
-                    pp[c] += k * cc[c];
+                    pp[c] += k_cont * cc[c];
                 }
             }
         }
     }
+    // a slanted filter: each position across the axis sees the profile shifted along it
+    let across_len = match spec.axis {
+        Axis::X => spec.height,
+        Axis::Y => spec.width,
+    };
+    let slope = spec.tilt_deg.to_radians().tan();
+    let slanted: Option<Vec<Vec<[f64; 3]>>> = (slope != 0.0).then(|| {
+        let b0 = (across_len as f64 - 1.0) / 2.0;
+        (0..across_len)
+            .map(|b| {
+                let shift = slope * (b as f64 - b0);
+                (0..along)
+                    .map(|p| {
+                        let q = p as f64 + shift;
+                        let (l, c) = (lines_at(q), continuum_at(q));
+                        std::array::from_fn(|ch| l[ch] + k_cont * c[ch])
+                    })
+                    .collect()
+            })
+            .collect()
+    });
+    let value_at = |x: usize, y: usize| -> [f64; 3] {
+        let (p, b) = match spec.axis {
+            Axis::X => (x, y),
+            Axis::Y => (y, x),
+        };
+        match &slanted {
+            Some(rows) => rows[b][p],
+            None => profile[p],
+        }
+    };
     let vig = |x: usize, y: usize| {
         spec.vignetting_shape
             .at(spec.vignetting, spec.axis, x, y, spec.width, spec.height)
@@ -453,11 +507,7 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
     let mut max = 0.0f64;
     for y in 0..spec.height {
         for x in 0..spec.width {
-            let p = match spec.axis {
-                Axis::X => x,
-                Axis::Y => y,
-            };
-            for v in profile[p] {
+            for v in value_at(x, y) {
                 max = max.max(v * vig(x, y));
             }
         }
@@ -476,12 +526,8 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
     let mut sat = vec![0u8; n];
     for y in 0..spec.height {
         for x in 0..spec.width {
-            let p = match spec.axis {
-                Axis::X => x,
-                Axis::Y => y,
-            };
             let v = vig(x, y);
-            for (c, pc) in profile[p].iter().enumerate() {
+            for (c, pc) in value_at(x, y).iter().enumerate() {
                 let s = noisy_value(pc * v * scale, spec.noise, PEAK, &mut rng).clamp(0.0, 1.0);
                 if s >= 1.0 {
                     sat[y * spec.width + x] |= 1 << c;
@@ -504,6 +550,7 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         passband: spec.passband.report(),
         px_at_400: px_at(400.0),
         px_at_700: px_at(700.0),
+        tilt_deg: spec.tilt_deg,
         lamp: spec.lamp.clone(),
         camera: spec.camera.name().to_string(),
         noise: spec.noise,

@@ -234,8 +234,8 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
     use crate::lvf::fit::Direction;
     use crate::lvf::transmission::{BandModel, DEFAULT_SUPPORT_FWHM};
     use crate::lvf::{
-        calibrate_whole_profile, extract_profile, render_lvf, Axis, FitOptions, LvfSynthSpec,
-        MapChoice,
+        calibrate_whole_profile, extract_profile_straightened, render_lvf, Axis, FitOptions,
+        LvfSynthSpec, MapChoice,
     };
     use crate::pipeline::acquisition::{
         band_transmissions, recover_spectrum, recovery_csv, recovery_plot_png, RecoverInputs,
@@ -256,6 +256,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         nm_at_start: 380.0,
         nm_per_px: 0.3,
         bow_nm: 0.0,
+        tilt_deg: 0.0,
         passband: crate::lvf::Passband::Gaussian,
         fwhm_nm: 25.0,
         lamp: resolve_lamp("hg")?,
@@ -275,7 +276,8 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         .scratch
         .write("lamp.tiff", &crate::io::image::frame_to_tiff16(&frame)?)?;
     let (frame, _) = crate::io::series::read_frame(&lamp_tiff)?;
-    let profile = extract_profile(&frame, [0, 0, w, h], Axis::X)?;
+    // as `lvf calibrate` reads it: along the filter's iso-wavelength lines if they slant
+    let (profile, _) = extract_profile_straightened(&frame, [0, 0, w, h], Axis::X)?;
     let opts = FitOptions {
         map: MapChoice::Linear,
         passband: resolve_passband("gaussian")?,

@@ -25,6 +25,7 @@ pub fn spec(
         nm_at_start: 372.3,
         nm_per_px: 0.3117,
         bow_nm: 0.0,
+        tilt_deg: 0.0,
         passband: lumifit::lvf::Passband::Gaussian,
         fwhm_nm: 25.0,
         lamp,

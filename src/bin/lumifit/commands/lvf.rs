@@ -12,8 +12,8 @@ use lumifit::lvf::fit::Direction;
 use lumifit::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
 use lumifit::lvf::synth::ContinuumShape;
 use lumifit::lvf::{
-    calibrate_peaks, calibrate_whole_profile, extract_profile, Axis, BackgroundChoice, FitOptions,
-    MapChoice,
+    calibrate_peaks, calibrate_whole_profile, extract_profile, extract_profile_straightened,
+    extract_profile_tilted, Axis, BackgroundChoice, FitOptions, MapChoice,
 };
 
 use super::emit;
@@ -119,6 +119,13 @@ pub struct CalibrateArgs {
     /// Do not estimate and divide out a radial fall-off from the ROI's strips across the axis.
     #[arg(long)]
     pub no_radial_falloff: bool,
+    /// The slant of the filter's iso-wavelength lines in the image: auto (measured from the
+    /// ROI's strips across the axis and followed when significant: > 5σ and a shift of ≥ 0.25 px
+    /// at the ROI's edge), off (average along the rows, or columns for --axis y), or the angle in
+    /// degrees as lvf.json's tilt.degrees reports it. lvf.json records the slant followed, and
+    /// the commands that read captures through lvf.json follow it too.
+    #[arg(long, default_value = "auto", value_name = "auto|off|DEGREES")]
+    pub tilt: String,
     /// Weight each profile sample by its noise estimated from the profile (read + shot noise,
     /// `diagnostics.noise_model` in lvf.json): auto weights when --camera is given (the shared
     /// continuum spectrum can follow the continuum; the models without the camera are biased
@@ -300,7 +307,35 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         AxisArg::X => Axis::X,
         AxisArg::Y => Axis::Y,
     };
-    let profile = extract_profile(&frame, roi, axis)?;
+    let (profile, tilt_estimate) = match a.tilt.trim() {
+        t if t.eq_ignore_ascii_case("auto") => extract_profile_straightened(&frame, roi, axis)?,
+        t if t.eq_ignore_ascii_case("off") => (extract_profile(&frame, roi, axis)?, None),
+        t => {
+            let deg: f64 = t
+                .parse()
+                .ok()
+                .filter(|d: &f64| d.is_finite() && d.abs() < 45.0)
+                .ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--tilt {t}: expected auto, off or an angle in degrees between -45 and 45"
+                    )
+                })?;
+            let [x, y, w, h] = roi;
+            let reference_px = match axis {
+                Axis::X => y as f64 + 0.5 * (h as f64 - 1.0),
+                Axis::Y => x as f64 + 0.5 * (w as f64 - 1.0),
+            };
+            let tilt = lumifit::lvf::Tilt {
+                slope: deg.to_radians().tan(),
+                reference_px,
+                sigma: 0.0,
+            };
+            (
+                extract_profile_tilted(&frame, roi, axis, Some(&tilt))?,
+                None,
+            )
+        }
+    };
     let flat = match &a.flat {
         None => None,
         Some(path) => {
@@ -325,6 +360,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
                 frame.source_size(),
                 roi,
                 axis,
+                profile.tilt.as_ref(),
                 spectrum,
             )?)
         }
@@ -381,6 +417,18 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     }
     let mut json = serde_json::to_value(&cal)?;
     json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
+    if let Some(e) = &tilt_estimate {
+        json["diagnostics"]["tilt"] = serde_json::json!({
+            "slope": e.tilt.slope,
+            "degrees": e.tilt.degrees(),
+            "sigma": e.tilt.sigma,
+            "reference_px": e.tilt.reference_px,
+            "max_shift_px": e.max_shift_px,
+            "followed": profile.tilt.is_some(),
+            "strip_shifts_px": e.strip_shifts,
+            "note": "each strip across the axis fitted as the other strips' mean profile shifted along the axis (times its own smooth fall-off); the slope of those shifts against the strips' positions, followed when > 5σ and the ROI's edge moves ≥ 0.25 px (strip_shifts_px: the first pass, against the rows' mean)",
+        });
+    }
     out.stage(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
     if let Some(p) = &a.plot {
         out.stage(p, &lumifit::plot::lvf_chart_png(&cal)?)?;

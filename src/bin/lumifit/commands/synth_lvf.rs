@@ -100,6 +100,16 @@ pub struct LvfHgArgs {
     /// (a quadratic map; 0: linear, as the paper's LVF). Negative bows the other way.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub bow: f64,
+    /// Slant of the filter's iso-wavelength lines (degrees): each position across the axis sees
+    /// the map shifted along it by tan(tilt) px per px from the middle, where the truth's map
+    /// holds (0: square to the sensor).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_hyphen_values = true,
+        value_name = "DEGREES"
+    )]
+    pub tilt: f64,
     /// Passband FWHM (nm).
     #[arg(long, default_value_t = 25.0)]
     pub fwhm: f64,
@@ -305,6 +315,7 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         nm_at_start: a.nm_at_start,
         nm_per_px: a.nm_per_px,
         bow_nm: a.bow,
+        tilt_deg: a.tilt,
         fwhm_nm: a.fwhm,
         passband: lumifit::io::sources::resolve_passband(&a.passband)?,
         lamp: resolve_lamp(&a.lamp)?,
