@@ -50,8 +50,8 @@ pub use geometry::{BandReadings, LvfGeometry};
 pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;
 pub use profile::{
-    estimate_tilt, extract_profile, extract_profile_straightened, extract_profile_tilted, Axis,
-    Profile, Tilt, TiltEstimate,
+    estimate_tilt, extract_profile, extract_profile_straightened, extract_profile_tilted,
+    repair_occlusions, Axis, Occlusion, Profile, Tilt, TiltEstimate,
 };
 pub use shared_continuum::CameraResponse;
 pub use synth::{render_lvf, LvfSynthSpec, LvfTruth};

@@ -626,6 +626,223 @@ pub fn extract_profile_straightened(
     Ok((profile, Some(est)))
 }
 
+/// A local dark patch in one strip across the axis (dust on the filter or the sensor, a
+/// defect) that [`repair_occlusions`] replaced.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Occlusion {
+    /// The strip's mean position across the axis (source px).
+    pub across_px: f64,
+    /// First and last position along the axis (source px).
+    pub along_px: [f64; 2],
+    /// Deepest relative dip of the strip against its prediction from the others.
+    pub depth: f64,
+}
+
+/// A strip is dark there when its relative residual, combined over the channels, falls below
+/// this many of its standard deviations (from the residual's local robust scale) …
+pub const OCCLUSION_SIGMA: f64 = 5.0;
+/// … and below this fraction.
+pub const OCCLUSION_DEPTH: f64 = 0.02;
+/// A channel counts where the strip's prediction exceeds this fraction of its peak.
+pub const OCCLUSION_MIN_LEVEL: f64 = 0.02;
+
+/// Finds and replaces local dark patches of single strips: dust on the filter casts a soft
+/// shadow a few tens of pixels wide, which the mean over the ROI draws as a dip under whatever
+/// line lies there (three specks 35 % deep moved 400 / 700 nm by −0.61 / +0.69 nm,
+/// `scripts/reference/lvf_robustness.py` case 36). Each strip is predicted from the mean of the
+/// others times its own smooth level (per channel a + (g₀ + g₁u + g₂u²)·mean, both smoothed as
+/// in [`estimate_tilt`]); where its relative residual, combined over the channels (dust is
+/// grey; each channel weighted by (prediction / local robust scale of its residual)²), lies
+/// below −[`OCCLUSION_SIGMA`] of its σ and −[`OCCLUSION_DEPTH`] over ≥ 3 positions
+/// (widened by 3 either side), the strip's values are replaced by that prediction and the
+/// profile's mean corrected by the same amount. The fit is repeated once without the flagged
+/// positions. Needs ≥ 4 strips; a patch that darkens every strip alike is not seen.
+pub fn repair_occlusions(profile: &mut Profile) -> Vec<Occlusion> {
+    let n = profile.px.len();
+    let ns = profile.strips.len();
+    let mut found = Vec::new();
+    if ns < 4 || n < 16 {
+        return found;
+    }
+    let (lo, hi) = (profile.px[0], profile.px[n - 1]);
+    let mid = 0.5 * (lo + hi);
+    let half = (0.5 * (hi - lo)).max(1.0);
+    let ok = |st: &Strip, i: usize| st.counts[i] > 0 && (0..3).all(|c| st.values[c][i].is_finite());
+    let mut total = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let mut total_n = vec![0.0; n];
+    for st in &profile.strips {
+        for i in (0..n).filter(|&i| ok(st, i)) {
+            for (t, v) in total.iter_mut().zip(&st.values) {
+                t[i] += st.counts[i] as f64 * v[i];
+            }
+            total_n[i] += st.counts[i] as f64;
+        }
+    }
+    let peak: Vec<f64> = profile
+        .values
+        .iter()
+        .map(|v| v.iter().fold(0.0_f64, |m, &x| m.max(x.abs())))
+        .collect();
+    // (strip, position, predicted values) to replace
+    let mut replace: Vec<(usize, usize, [f64; 3])> = Vec::new();
+    for (k, st) in profile.strips.iter().enumerate() {
+        let own_n: Vec<f64> = (0..n)
+            .map(|i| if ok(st, i) { st.counts[i] as f64 } else { 0.0 })
+            .collect();
+        let others: [Vec<f64>; 3] = std::array::from_fn(|c| {
+            (0..n)
+                .map(|i| {
+                    let m = total_n[i] - own_n[i];
+                    if m > 0.0 {
+                        (total[c][i] - own_n[i] * st.values[c][i].max(f64::MIN)) / m
+                    } else {
+                        f64::NAN
+                    }
+                })
+                .collect()
+        });
+        let none = vec![false; n];
+        let others_s: [Vec<f64>; 3] = std::array::from_fn(|c| despiked_smooth(&others[c], &none));
+        let own_s: [Vec<f64>; 3] = std::array::from_fn(|c| despiked_smooth(&st.values[c], &none));
+        let mut flagged = vec![false; n];
+        let mut pred = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for _pass in 0..2 {
+            // per channel the smoothed residual, its local robust scale (±50 positions, flagged
+            // ones left out) and the prediction; combined over the channels as a relative dip
+            // weighted by (prediction / scale)² — dust is grey, and a dim channel's relative
+            // residual is noisy
+            let mut wsum = vec![0.0; n];
+            let mut esum = vec![0.0; n];
+            for c in 0..3 {
+                if peak[c] <= 0.0 {
+                    continue;
+                }
+                let mut g = vec![vec![0.0; 4]; 4];
+                let mut r = vec![0.0; 4];
+                let cols = |i: usize| {
+                    let u = (profile.px[i] - mid) / half;
+                    let m = others_s[c][i];
+                    [1.0, m, u * m, u * u * m]
+                };
+                for i in (0..n).filter(|&i| !flagged[i] && ok(st, i) && others_s[c][i].is_finite())
+                {
+                    let x = cols(i);
+                    for a in 0..4 {
+                        r[a] += x[a] * own_s[c][i];
+                        for b in 0..4 {
+                            g[a][b] += x[a] * x[b];
+                        }
+                    }
+                }
+                let Some(beta) = crate::math::linalg::solve_dense(g, r) else {
+                    continue;
+                };
+                for (i, pi) in pred[c].iter_mut().enumerate() {
+                    *pi = cols(i).iter().zip(&beta).map(|(x, b)| x * b).sum();
+                }
+                let res: Vec<f64> = (0..n)
+                    .map(|i| {
+                        if ok(st, i) {
+                            own_s[c][i] - pred[c][i]
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect();
+                for i in 0..n {
+                    let f = pred[c][i];
+                    if f.is_nan() || f <= OCCLUSION_MIN_LEVEL * peak[c] || !res[i].is_finite() {
+                        continue;
+                    }
+                    let mut win: Vec<f64> = (i.saturating_sub(50)..(i + 51).min(n))
+                        .filter(|&j| !flagged[j] && res[j].is_finite())
+                        .map(|j| res[j].abs())
+                        .collect();
+                    if win.len() < 10 {
+                        continue;
+                    }
+                    let m = win.len() / 2;
+                    let (_, med, _) = win.select_nth_unstable_by(m, f64::total_cmp);
+                    let scale = (*med / 0.6745).max(1e-12 * peak[c]);
+                    let w = (f / scale).powi(2);
+                    wsum[i] += w;
+                    esum[i] += w * res[i] / f;
+                }
+            }
+            // the combined relative dip and its standard deviation
+            let dark: Vec<bool> = (0..n)
+                .map(|i| {
+                    wsum[i] > 0.0 && {
+                        let e = esum[i] / wsum[i];
+                        e < -OCCLUSION_DEPTH && e < -OCCLUSION_SIGMA / wsum[i].sqrt()
+                    }
+                })
+                .collect();
+
+            let mut next = vec![false; n];
+            let mut i = 0;
+            while i < n {
+                if !dark[i] {
+                    i += 1;
+                    continue;
+                }
+                let start = i;
+                while i < n && dark[i] {
+                    i += 1;
+                }
+                if i - start >= 3 {
+                    for f in &mut next[start.saturating_sub(3)..(i + 3).min(n)] {
+                        *f = true;
+                    }
+                }
+            }
+            if next == flagged {
+                break;
+            }
+            flagged = next;
+        }
+        // runs of flagged positions: report and replace
+        let mut i = 0;
+        while i < n {
+            if !flagged[i] {
+                i += 1;
+                continue;
+            }
+            let start = i;
+            let mut depth = 0.0_f64;
+            while i < n && flagged[i] {
+                if ok(st, i) {
+                    let mut d = 0.0;
+                    let mut m = 0;
+                    for c in (0..3).filter(|&c| pred[c][i] > 0.05 * peak[c]) {
+                        d += (pred[c][i] - st.values[c][i]) / pred[c][i];
+                        m += 1;
+                    }
+                    if m > 0 {
+                        depth = depth.max(d / m as f64);
+                    }
+                    replace.push((k, i, [pred[0][i], pred[1][i], pred[2][i]]));
+                }
+                i += 1;
+            }
+            found.push(Occlusion {
+                across_px: st.across_px,
+                along_px: [profile.px[start], profile.px[i - 1]],
+                depth,
+            });
+        }
+    }
+    for (k, i, p) in replace {
+        let st = &mut profile.strips[k];
+        let w = st.counts[i] as f64 / profile.counts[i].max(1) as f64;
+        for ((pv, sv), pc) in profile.values.iter_mut().zip(st.values.iter_mut()).zip(p) {
+            pv[i] += w * (pc - sv[i]);
+            sv[i] = pc;
+        }
+    }
+    found
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

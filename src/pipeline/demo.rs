@@ -276,8 +276,10 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         .scratch
         .write("lamp.tiff", &crate::io::image::frame_to_tiff16(&frame)?)?;
     let (frame, _) = crate::io::series::read_frame(&lamp_tiff)?;
-    // as `lvf calibrate` reads it: along the filter's iso-wavelength lines if they slant
-    let (profile, _) = extract_profile_straightened(&frame, [0, 0, w, h], Axis::X)?;
+    // as `lvf calibrate` reads it: along the filter's iso-wavelength lines if they slant, dust
+    // shadows replaced
+    let (mut profile, _) = extract_profile_straightened(&frame, [0, 0, w, h], Axis::X)?;
+    crate::lvf::repair_occlusions(&mut profile);
     let opts = FitOptions {
         map: MapChoice::Linear,
         passband: resolve_passband("gaussian")?,

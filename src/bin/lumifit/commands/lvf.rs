@@ -126,6 +126,11 @@ pub struct CalibrateArgs {
     /// the commands that read captures through lvf.json follow it too.
     #[arg(long, default_value = "auto", value_name = "auto|off|DEGREES")]
     pub tilt: String,
+    /// Keep local dark patches of single strips across the axis (dust shadows, defects) in the
+    /// profile; by default each is replaced by that strip's prediction from the other strips
+    /// and listed in lvf.json (diagnostics.occlusions).
+    #[arg(long)]
+    pub keep_occlusions: bool,
     /// Weight each profile sample by its noise estimated from the profile (read + shot noise,
     /// `diagnostics.noise_model` in lvf.json): auto weights when --camera is given (the shared
     /// continuum spectrum can follow the continuum; the models without the camera are biased
@@ -307,7 +312,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         AxisArg::X => Axis::X,
         AxisArg::Y => Axis::Y,
     };
-    let (profile, tilt_estimate) = match a.tilt.trim() {
+    let (mut profile, tilt_estimate) = match a.tilt.trim() {
         t if t.eq_ignore_ascii_case("auto") => extract_profile_straightened(&frame, roi, axis)?,
         t if t.eq_ignore_ascii_case("off") => (extract_profile(&frame, roi, axis)?, None),
         t => {
@@ -336,6 +341,21 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
             )
         }
     };
+    let occlusions = if a.keep_occlusions {
+        Vec::new()
+    } else {
+        lumifit::lvf::repair_occlusions(&mut profile)
+    };
+    for o in &occlusions {
+        eprintln!(
+            "note: {}: a dark patch (dust or a defect?) in the strip at {:.0} px across the axis, px {:.0}–{:.0} along it, {:.0} % deep: replaced by the strip's prediction from the others (--keep-occlusions keeps it)",
+            a.image.display(),
+            o.across_px,
+            o.along_px[0],
+            o.along_px[1],
+            100.0 * o.depth
+        );
+    }
     let flat = match &a.flat {
         None => None,
         Some(path) => {
@@ -417,6 +437,12 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     }
     let mut json = serde_json::to_value(&cal)?;
     json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
+    if !a.keep_occlusions {
+        json["diagnostics"]["occlusions"] = serde_json::json!({
+            "patches": occlusions,
+            "note": "local dark patches of single strips across the axis (a strip's mean over the channels of its relative residual against the other strips' mean times its own smooth level below −6 robust σ and −2 % over ≥ 3 positions, widened by 3), replaced by that prediction; a patch darkening every strip alike is not seen",
+        });
+    }
     if let Some(e) = &tilt_estimate {
         json["diagnostics"]["tilt"] = serde_json::json!({
             "slope": e.tilt.slope,
