@@ -12,7 +12,7 @@ use lumifit::lvf::{
 };
 
 mod common;
-use common::{lumifit, stderr};
+use common::{lumifit, read_json, stderr};
 
 /// Dust specks (centre x, centre y, radius, depth) on the 1200×160 image.
 const DUST: [(f64, f64, f64, f64); 3] = [
@@ -131,8 +131,7 @@ fn calibrate_lists_the_patches_it_replaced_and_keeps_them_on_request() {
     let o = lumifit(&["lvf", "calibrate", &img, "--axis", "x", "--out", &out]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("dark patch"), "{}", stderr(&o));
-    let cal: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let cal = read_json(&out);
     let patches = cal["diagnostics"]["occlusions"]["patches"]
         .as_array()
         .unwrap();
@@ -160,7 +159,6 @@ fn calibrate_lists_the_patches_it_replaced_and_keeps_them_on_request() {
         &kept,
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let cal: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&kept).unwrap()).unwrap();
+    let cal = read_json(&kept);
     assert!(cal["diagnostics"].get("occlusions").is_none());
 }

@@ -546,6 +546,24 @@ fn spikes(values: &[Vec<f64>; 3]) -> Vec<bool> {
     flag
 }
 
+/// The maximal runs of `true` in `mask`.
+fn runs(mask: &[bool]) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < mask.len() {
+        if mask[i] {
+            let start = i;
+            while i < mask.len() && mask[i] {
+                i += 1;
+            }
+            out.push(start..i);
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
 /// `values` with the flagged and non-finite samples replaced by the straight line between their
 /// nearest good neighbours, then smoothed by a Gaussian of σ = 2 samples (±6; renormalised at
 /// the ends).
@@ -780,20 +798,9 @@ pub fn repair_occlusions(profile: &mut Profile) -> Vec<Occlusion> {
                 .collect();
 
             let mut next = vec![false; n];
-            let mut i = 0;
-            while i < n {
-                if !dark[i] {
-                    i += 1;
-                    continue;
-                }
-                let start = i;
-                while i < n && dark[i] {
-                    i += 1;
-                }
-                if i - start >= 3 {
-                    for f in &mut next[start.saturating_sub(3)..(i + 3).min(n)] {
-                        *f = true;
-                    }
+            for r in runs(&dark).into_iter().filter(|r| r.len() >= 3) {
+                for f in &mut next[r.start.saturating_sub(3)..(r.end + 3).min(n)] {
+                    *f = true;
                 }
             }
             if next == flagged {
@@ -802,32 +809,23 @@ pub fn repair_occlusions(profile: &mut Profile) -> Vec<Occlusion> {
             flagged = next;
         }
         // runs of flagged positions: report and replace
-        let mut i = 0;
-        while i < n {
-            if !flagged[i] {
-                i += 1;
-                continue;
-            }
-            let start = i;
+        for r in runs(&flagged) {
             let mut depth = 0.0_f64;
-            while i < n && flagged[i] {
-                if ok(st, i) {
-                    let mut d = 0.0;
-                    let mut m = 0;
-                    for c in (0..3).filter(|&c| pred[c][i] > 0.05 * peak[c]) {
-                        d += (pred[c][i] - st.values[c][i]) / pred[c][i];
-                        m += 1;
-                    }
-                    if m > 0 {
-                        depth = depth.max(d / m as f64);
-                    }
-                    replace.push((k, i, [pred[0][i], pred[1][i], pred[2][i]]));
+            for i in r.clone().filter(|&i| ok(st, i)) {
+                let mut d = 0.0;
+                let mut m = 0;
+                for c in (0..3).filter(|&c| pred[c][i] > 0.05 * peak[c]) {
+                    d += (pred[c][i] - st.values[c][i]) / pred[c][i];
+                    m += 1;
                 }
-                i += 1;
+                if m > 0 {
+                    depth = depth.max(d / m as f64);
+                }
+                replace.push((k, i, [pred[0][i], pred[1][i], pred[2][i]]));
             }
             found.push(Occlusion {
                 across_px: st.across_px,
-                along_px: [profile.px[start], profile.px[i - 1]],
+                along_px: [profile.px[r.start], profile.px[r.end - 1]],
                 depth,
             });
         }
