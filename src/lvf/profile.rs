@@ -814,7 +814,7 @@ pub fn repair_occlusions(profile: &mut Profile) -> Vec<Occlusion> {
             for i in r.clone().filter(|&i| ok(st, i)) {
                 let mut d = 0.0;
                 let mut m = 0;
-                for c in (0..3).filter(|&c| pred[c][i] > 0.05 * peak[c]) {
+                for c in (0..3).filter(|&c| pred[c][i] > OCCLUSION_MIN_LEVEL * peak[c]) {
                     d += (pred[c][i] - st.values[c][i]) / pred[c][i];
                     m += 1;
                 }

@@ -440,7 +440,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     if !a.keep_occlusions {
         json["diagnostics"]["occlusions"] = serde_json::json!({
             "patches": occlusions,
-            "note": "local dark patches of single strips across the axis (a strip's mean over the channels of its relative residual against the other strips' mean times its own smooth level below −6 robust σ and −2 % over ≥ 3 positions, widened by 3), replaced by that prediction; a patch darkening every strip alike is not seen",
+            "note": format!("local dark patches of single strips across the axis (a strip's relative residual against the other strips' mean times its own smooth level, combined over the channels weighted by (prediction / local robust scale)², below −{} σ and −{} % over ≥ 3 positions, widened by 3), replaced by that prediction; a patch darkening every strip alike is not seen", lumifit::lvf::profile::OCCLUSION_SIGMA, 100.0 * lumifit::lvf::profile::OCCLUSION_DEPTH),
         });
     }
     if let Some(e) = &tilt_estimate {
