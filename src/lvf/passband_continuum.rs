@@ -70,6 +70,7 @@ impl PassbandBasis {
     }
 
     /// Number of columns (intervals + 3).
+    #[cfg(test)]
     pub fn n(&self) -> usize {
         self.inner.n()
     }
@@ -77,10 +78,8 @@ impl PassbandBasis {
     /// Φ_k at the sample wavelengths `lams` for the passband of `fwhm_nm`, row-major
     /// `lams.len()` × [`PassbandBasis::n`].
     pub fn rows(&self, lams: &[f64], fwhm_nm: f64, passband: &Passband) -> Vec<f64> {
-        let n = lams.len() * self.n();
-        let mut all = self.inner.columns(lams, &[], fwhm_nm, passband);
-        all.truncate(n); // the three channel blocks are equal; keep the first
-        all
+        // the unit camera's three channel blocks are equal: the first is the rows
+        self.inner.columns_of(1, lams, &[], fwhm_nm, passband)
     }
 }
 

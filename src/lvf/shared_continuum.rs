@@ -201,27 +201,83 @@ impl SharedBasis {
     /// Φ_{k,c}(i) = Σ_g g(λ_g − λ_i)·Q_c(λ_g)·B_k(λ_g) for samples at wavelengths `lams`, each
     /// times `scale[i]` (the fall-off); layout `[c][i][k]` (3 × n × K).
     pub fn columns(&self, lams: &[f64], scale: &[f64], fwhm: f64, passband: &Passband) -> Vec<f64> {
+        self.columns_of(3, lams, scale, fwhm, passband)
+    }
+
+    /// [`SharedBasis::columns`] for the first `channels` channels only (layout `[c][i][k]`,
+    /// `channels` × n × K).
+    pub fn columns_of(
+        &self,
+        channels: usize,
+        lams: &[f64],
+        scale: &[f64],
+        fwhm: f64,
+        passband: &Passband,
+    ) -> Vec<f64> {
+        match channels.min(3) {
+            0 => Vec::new(),
+            1 => self.columns_c::<1>(lams, scale, fwhm, passband),
+            2 => self.columns_c::<2>(lams, scale, fwhm, passband),
+            _ => self.columns_c::<3>(lams, scale, fwhm, passband),
+        }
+    }
+
+    /// [`SharedBasis::columns_of`] for `C` channels: per sample, the passband on the grid in one
+    /// uniform run, and the products summed in registers over each knot interval (where the
+    /// four non-zero B-splines are the same) before they are added to the output.
+    fn columns_c<const C: usize>(
+        &self,
+        lams: &[f64],
+        scale: &[f64],
+        fwhm: f64,
+        passband: &Passband,
+    ) -> Vec<f64> {
         let nk = self.n();
         let n = lams.len();
-        let mut out = vec![0.0; 3 * n * nk];
-        let reach = 4.0 * fwhm;
+        let mut out = vec![0.0; C * n * nk];
+        // 4 FWHM, or less where the passband is exactly 0 beyond (8σ for the Gaussian)
+        let reach = (4.0 * fwhm).min(passband.support_nm(fwhm));
+        // the grid is whole nm from lo (see `new`): g(λ_g − λ_i) on it is one uniform run
+        let step = if self.grid.len() > 1 {
+            self.grid[1] - self.grid[0]
+        } else {
+            1.0
+        };
+        let mut g = Vec::new();
         for (i, &li) in lams.iter().enumerate() {
             let a = self.grid.partition_point(|&g| g < li - reach);
             let b = self.grid.partition_point(|&g| g <= li + reach);
+            if a >= b {
+                continue;
+            }
             let s = scale.get(i).copied().unwrap_or(1.0);
-            for gi in a..b {
-                let t = passband.eval(self.grid[gi] - li, fwhm) * s;
-                if t == 0.0 {
-                    continue;
-                }
-                let k0 = self.first_k[gi];
-                for c in 0..3 {
+            g.resize(b - a, 0.0);
+            passband.eval_uniform(self.grid[a] - li, step, fwhm, &mut g);
+            let mut flush = |k0: usize, acc: &[[f64; 4]; C]| {
+                for (c, ac) in acc.iter().enumerate() {
                     let base = (c * n + i) * nk + k0;
-                    for j in 0..4 {
-                        out[base + j] += t * self.w[gi][c][j];
+                    for (o, v) in out[base..base + 4].iter_mut().zip(ac) {
+                        *o += s * v;
+                    }
+                }
+            };
+            let mut k_run = self.first_k[a];
+            let mut acc = [[0.0; 4]; C];
+            for (gi, &t) in (a..b).zip(&g) {
+                let k0 = self.first_k[gi];
+                if k0 != k_run {
+                    flush(k_run, &acc);
+                    acc = [[0.0; 4]; C];
+                    k_run = k0;
+                }
+                let w = &self.w[gi];
+                for (ac, wc) in acc.iter_mut().zip(w) {
+                    for (a, wj) in ac.iter_mut().zip(wc) {
+                        *a += t * wj;
                     }
                 }
             }
+            flush(k_run, &acc);
         }
         out
     }
