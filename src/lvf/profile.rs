@@ -644,6 +644,125 @@ pub fn extract_profile_straightened(
     Ok((profile, Some(est)))
 }
 
+/// How the ROI is read across the axis (`lvf calibrate --tilt`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TiltChoice {
+    /// The slant measured from the strips and followed when significant
+    /// ([`extract_profile_straightened`]).
+    Auto,
+    /// Along the rows (or columns), whatever the slant.
+    Off,
+    /// A slant given in degrees (|angle| < 45), about the ROI's middle across the axis.
+    Degrees(f64),
+}
+
+impl std::str::FromStr for TiltChoice {
+    type Err = Error;
+
+    /// `auto`, `off` (any case) or an angle in degrees between −45 and 45.
+    fn from_str(s: &str) -> Result<Self> {
+        let t = s.trim();
+        if t.eq_ignore_ascii_case("auto") {
+            return Ok(TiltChoice::Auto);
+        }
+        if t.eq_ignore_ascii_case("off") {
+            return Ok(TiltChoice::Off);
+        }
+        t.parse::<f64>()
+            .ok()
+            .filter(|d| d.is_finite() && d.abs() < 45.0)
+            .map(TiltChoice::Degrees)
+            .ok_or_else(|| {
+                Error::invalid(
+                    "tilt",
+                    format!("{t}: expected auto, off or an angle in degrees between -45 and 45"),
+                )
+            })
+    }
+}
+
+/// The profile a calibration fits, as read from the image: along the slant chosen, with dust
+/// repaired or not, and what was found on the way.
+#[derive(Debug, Clone)]
+pub struct PreparedProfile {
+    /// The profile (its `tilt` the slant followed, if any).
+    pub profile: Profile,
+    /// The slant measured ([`TiltChoice::Auto`] only; `None` when it could not be measured).
+    pub tilt_estimate: Option<TiltEstimate>,
+    /// The dark patches replaced; `None` when they were not looked for.
+    pub occlusions: Option<Vec<Occlusion>>,
+}
+
+/// Reads `roi` of `frame` for a calibration: across the axis as `tilt` says, then, when
+/// `repair_dust`, local dark patches of single strips replaced ([`repair_occlusions`]).
+///
+/// # Errors
+/// As [`extract_profile`].
+pub fn prepare_profile(
+    frame: &RgbFrame,
+    roi: [usize; 4],
+    axis: Axis,
+    tilt: TiltChoice,
+    repair_dust: bool,
+) -> Result<PreparedProfile> {
+    let (mut profile, tilt_estimate) = match tilt {
+        TiltChoice::Auto => extract_profile_straightened(frame, roi, axis)?,
+        TiltChoice::Off => (extract_profile(frame, roi, axis)?, None),
+        TiltChoice::Degrees(deg) => {
+            let [x, y, w, h] = roi;
+            let reference_px = match axis {
+                Axis::X => y as f64 + 0.5 * (h as f64 - 1.0),
+                Axis::Y => x as f64 + 0.5 * (w as f64 - 1.0),
+            };
+            let tilt = Tilt {
+                slope: deg.to_radians().tan(),
+                reference_px,
+                sigma: 0.0,
+            };
+            (extract_profile_tilted(frame, roi, axis, Some(&tilt))?, None)
+        }
+    };
+    let occlusions = repair_dust.then(|| repair_occlusions(&mut profile));
+    Ok(PreparedProfile {
+        profile,
+        tilt_estimate,
+        occlusions,
+    })
+}
+
+impl PreparedProfile {
+    /// What lvf.json's `diagnostics` records of the reading: `occlusions` (when looked for) and
+    /// `tilt` (when measured), each with a note saying how it was found.
+    pub fn diagnostics(&self) -> serde_json::Map<String, serde_json::Value> {
+        let mut d = serde_json::Map::new();
+        if let Some(patches) = &self.occlusions {
+            d.insert(
+                "occlusions".into(),
+                serde_json::json!({
+                    "patches": patches,
+                    "note": format!("local dark patches of single strips across the axis (a strip's relative residual against the other strips' mean times its own smooth level, combined over the channels weighted by (prediction / local robust scale)², below −{OCCLUSION_SIGMA} σ and −{} % over ≥ 3 positions, widened by 3), replaced by that prediction; a patch darkening every strip alike is not seen", 100.0 * OCCLUSION_DEPTH),
+                }),
+            );
+        }
+        if let Some(e) = &self.tilt_estimate {
+            d.insert(
+                "tilt".into(),
+                serde_json::json!({
+                    "slope": e.tilt.slope,
+                    "degrees": e.tilt.degrees(),
+                    "sigma": e.tilt.sigma,
+                    "reference_px": e.tilt.reference_px,
+                    "max_shift_px": e.max_shift_px,
+                    "followed": self.profile.tilt.is_some(),
+                    "strip_shifts_px": e.strip_shifts,
+                    "note": format!("each strip across the axis fitted as the other strips' mean profile shifted along the axis (times its own smooth fall-off); the slope of those shifts against the strips' positions, followed when > {TILT_T_MIN}σ and the ROI's edge moves ≥ {TILT_MIN_SHIFT_PX} px (strip_shifts_px: the first pass, against the rows' mean)"),
+                }),
+            );
+        }
+        d
+    }
+}
+
 /// A local dark patch in one strip across the axis (dust on the filter or the sensor, a
 /// defect) that [`repair_occlusions`] replaced.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -663,6 +782,19 @@ pub const OCCLUSION_SIGMA: f64 = 5.0;
 pub const OCCLUSION_DEPTH: f64 = 0.02;
 /// A channel counts where the strip's prediction exceeds this fraction of its peak.
 pub const OCCLUSION_MIN_LEVEL: f64 = 0.02;
+
+impl Occlusion {
+    /// One line for the user: where the patch is, how deep, what was done.
+    pub fn describe(&self) -> String {
+        format!(
+            "a dark patch (dust or a defect?) in the strip at {:.0} px across the axis, px {:.0}–{:.0} along it, {:.0} % deep: replaced by the strip's prediction from the others",
+            self.across_px,
+            self.along_px[0],
+            self.along_px[1],
+            100.0 * self.depth
+        )
+    }
+}
 
 /// Finds and replaces local dark patches of single strips: dust on the filter casts a soft
 /// shadow a few tens of pixels wide, which the mean over the ROI draws as a dip under whatever
@@ -873,6 +1005,22 @@ mod tests {
         RgbFrame::new("slanted", fw, fh, scale, data, sat).unwrap()
     }
 
+    /// `--tilt` takes auto / off in any case and angles strictly inside ±45°; anything else
+    /// is an error naming what was given.
+    #[test]
+    fn tilt_choice_parses_auto_off_and_angles_only() {
+        assert_eq!(" Auto ".parse::<TiltChoice>().unwrap(), TiltChoice::Auto);
+        assert_eq!("OFF".parse::<TiltChoice>().unwrap(), TiltChoice::Off);
+        assert_eq!(
+            "-44.5".parse::<TiltChoice>().unwrap(),
+            TiltChoice::Degrees(-44.5)
+        );
+        assert_eq!("3".parse::<TiltChoice>().unwrap(), TiltChoice::Degrees(3.0));
+        for bad in ["45", "-90", "nan", "inf", "three", ""] {
+            let e = bad.parse::<TiltChoice>().unwrap_err().to_string();
+            assert!(e.contains("expected auto, off"), "{bad}: {e}");
+        }
+    }
     #[test]
     fn the_slope_of_a_slanted_frame_is_measured_and_followed_also_when_binned() {
         for scale in [1, 2] {

@@ -12,8 +12,7 @@ use lumifit::lvf::fit::Direction;
 use lumifit::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
 use lumifit::lvf::synth::ContinuumShape;
 use lumifit::lvf::{
-    calibrate_peaks, calibrate_whole_profile, extract_profile, extract_profile_straightened,
-    extract_profile_tilted, Axis, BackgroundChoice, FitOptions, MapChoice,
+    calibrate_peaks, calibrate_whole_profile, Axis, BackgroundChoice, FitOptions, MapChoice,
 };
 
 use super::emit;
@@ -312,50 +311,21 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         AxisArg::X => Axis::X,
         AxisArg::Y => Axis::Y,
     };
-    let (mut profile, tilt_estimate) = match a.tilt.trim() {
-        t if t.eq_ignore_ascii_case("auto") => extract_profile_straightened(&frame, roi, axis)?,
-        t if t.eq_ignore_ascii_case("off") => (extract_profile(&frame, roi, axis)?, None),
-        t => {
-            let deg: f64 = t
-                .parse()
-                .ok()
-                .filter(|d: &f64| d.is_finite() && d.abs() < 45.0)
-                .ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--tilt {t}: expected auto, off or an angle in degrees between -45 and 45"
-                    )
-                })?;
-            let [x, y, w, h] = roi;
-            let reference_px = match axis {
-                Axis::X => y as f64 + 0.5 * (h as f64 - 1.0),
-                Axis::Y => x as f64 + 0.5 * (w as f64 - 1.0),
-            };
-            let tilt = lumifit::lvf::Tilt {
-                slope: deg.to_radians().tan(),
-                reference_px,
-                sigma: 0.0,
-            };
-            (
-                extract_profile_tilted(&frame, roi, axis, Some(&tilt))?,
-                None,
-            )
-        }
-    };
-    let occlusions = if a.keep_occlusions {
-        Vec::new()
-    } else {
-        lumifit::lvf::repair_occlusions(&mut profile)
-    };
-    for o in &occlusions {
+    let tilt: lumifit::lvf::TiltChoice = a.tilt.parse().map_err(|_| {
+        anyhow::anyhow!(
+            "--tilt {}: expected auto, off or an angle in degrees between -45 and 45",
+            a.tilt.trim()
+        )
+    })?;
+    let prepared = lumifit::lvf::prepare_profile(&frame, roi, axis, tilt, !a.keep_occlusions)?;
+    for o in prepared.occlusions.iter().flatten() {
         eprintln!(
-            "note: {}: a dark patch (dust or a defect?) in the strip at {:.0} px across the axis, px {:.0}–{:.0} along it, {:.0} % deep: replaced by the strip's prediction from the others (--keep-occlusions keeps it)",
+            "note: {}: {} (--keep-occlusions keeps it)",
             a.image.display(),
-            o.across_px,
-            o.along_px[0],
-            o.along_px[1],
-            100.0 * o.depth
+            o.describe()
         );
     }
+    let profile = &prepared.profile;
     let flat = match &a.flat {
         None => None,
         Some(path) => {
@@ -423,9 +393,9 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     };
     let t = std::time::Instant::now();
     let cal = match (a.method, &flat) {
-        (MethodArg::WholeProfile, None) => calibrate_whole_profile(&profile, &lamp, &opts),
-        (MethodArg::WholeProfile, Some(f)) => calibrate_with_flat(&profile, &lamp, &opts, f),
-        (MethodArg::Peaks, None) => calibrate_peaks(&profile, &lamp, &opts),
+        (MethodArg::WholeProfile, None) => calibrate_whole_profile(profile, &lamp, &opts),
+        (MethodArg::WholeProfile, Some(f)) => calibrate_with_flat(profile, &lamp, &opts, f),
+        (MethodArg::Peaks, None) => calibrate_peaks(profile, &lamp, &opts),
         (MethodArg::Peaks, Some(_)) => {
             anyhow::bail!("--flat works with --method whole-profile only (peak picking has no fall-off model)")
         }
@@ -437,23 +407,8 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
     }
     let mut json = serde_json::to_value(&cal)?;
     json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
-    if !a.keep_occlusions {
-        json["diagnostics"]["occlusions"] = serde_json::json!({
-            "patches": occlusions,
-            "note": format!("local dark patches of single strips across the axis (a strip's relative residual against the other strips' mean times its own smooth level, combined over the channels weighted by (prediction / local robust scale)², below −{} σ and −{} % over ≥ 3 positions, widened by 3), replaced by that prediction; a patch darkening every strip alike is not seen", lumifit::lvf::profile::OCCLUSION_SIGMA, 100.0 * lumifit::lvf::profile::OCCLUSION_DEPTH),
-        });
-    }
-    if let Some(e) = &tilt_estimate {
-        json["diagnostics"]["tilt"] = serde_json::json!({
-            "slope": e.tilt.slope,
-            "degrees": e.tilt.degrees(),
-            "sigma": e.tilt.sigma,
-            "reference_px": e.tilt.reference_px,
-            "max_shift_px": e.max_shift_px,
-            "followed": profile.tilt.is_some(),
-            "strip_shifts_px": e.strip_shifts,
-            "note": "each strip across the axis fitted as the other strips' mean profile shifted along the axis (times its own smooth fall-off); the slope of those shifts against the strips' positions, followed when > 5σ and the ROI's edge moves ≥ 0.25 px (strip_shifts_px: the first pass, against the rows' mean)",
-        });
+    for (k, v) in prepared.diagnostics() {
+        json["diagnostics"][k] = v;
     }
     out.stage(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
     if let Some(p) = &a.plot {
