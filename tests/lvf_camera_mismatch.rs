@@ -9,7 +9,7 @@
 
 use std::path::PathBuf;
 
-use lumifit::io::camera::parse_camera_file;
+use lumifit::io::camera::{parse_camera_database, parse_camera_file};
 use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
 use lumifit::lvf::{
     calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
@@ -210,4 +210,67 @@ fn the_cli_reads_an_academy_json_camera_and_refuses_a_broken_one() {
     ]);
     common::assert_rejected(&o, &["bad.json", &format!("line {line}"), "negative"]);
     assert!(!std::path::Path::new(&out2).exists());
+}
+
+/// The Jiang et al. database as they distribute it (`camspec_database.txt`, read in place) gives
+/// every one of its cameras exactly as the long CSV exported from it does, and the CLI takes it
+/// as `--camera camspec_database.txt:NAME`.
+#[test]
+fn the_distributed_jiang_database_reads_like_the_long_csv() {
+    let txt = camera_dir().join("camspec_database.txt");
+    let long = camera_dir().join("jiang2013_camspec_all_cameras_long.csv");
+    let (Ok(t), Ok(l)) = (std::fs::read(&txt), std::fs::read(&long)) else {
+        assert!(
+            std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+            "LUMIFIT_REQUIRE_DATA=1 but ../shared/data/camera/camspec_database.txt or the long CSV is missing"
+        );
+        eprintln!("SKIPPED: the Jiang database files are absent");
+        return;
+    };
+    let names: Vec<String> = String::from_utf8_lossy(&l)
+        .lines()
+        .skip(1)
+        .filter_map(|r| r.split(',').next().map(str::to_string))
+        .fold(Vec::new(), |mut v, n| {
+            if !v.contains(&n) {
+                v.push(n);
+            }
+            v
+        });
+    assert_eq!(names.len(), 28, "{names:?}");
+    for n in &names {
+        let a = parse_camera_database(&t, "camspec_database.txt", n).unwrap();
+        let b = parse_camera_database(&l, "long.csv", n).unwrap();
+        assert_eq!(a.wavelengths(), b.wavelengths(), "{n}");
+        for c in 0..3 {
+            assert_eq!(a.channel(c), b.channel(c), "{n} channel {c}");
+        }
+    }
+    let d = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("jiang_txt_{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lumifit"))
+        .args(["synth", "lvf-hg", "--out"])
+        .arg(d.join("l.tiff"))
+        .arg("--truth")
+        .arg(d.join("t.json"))
+        .arg("--camera")
+        .arg(format!("{}:Nikon D700", txt.display()))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let truth = common::read_json(d.join("t.json"));
+    assert!(
+        truth["camera"]
+            .as_str()
+            .unwrap()
+            .ends_with("camspec_database.txt:Nikon D700"),
+        "{}",
+        truth["camera"]
+    );
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -249,7 +249,8 @@ fn database_entry(p: &Path) -> Option<(std::path::PathBuf, String)> {
 /// One camera of a database table in long format `camera,wavelength_nm,r,g,b` (the Jiang et al.
 /// 2013 database as exported in `../shared/data/camera/`): the rows whose first field equals
 /// `name` (case-insensitive), through the same checks as [`parse_camera`]. `--camera
-/// FILE.csv:NAME` reads it.
+/// FILE.csv:NAME` reads it. The database as Jiang et al. distribute it (`camspec_database.txt`:
+/// a name line, then the R, G and B rows of 33 values, 400–720 nm in 10 nm steps) is read too.
 ///
 /// # Errors
 /// [`Error::Parse`] naming the source and line for a bad header or number, or when no row is
@@ -260,6 +261,13 @@ pub fn parse_camera_database(bytes: &[u8], source: &str, name: &str) -> Result<M
         source,
         "a camera database camera,wavelength_nm,r,g,b",
     )?;
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|t| !t.is_empty() && !t.starts_with('#'));
+    if first.is_some_and(|t| !t.to_ascii_lowercase().starts_with("camera")) && jiang_text(text) {
+        return parse_jiang_database(text, source, name);
+    }
     let mut header_seen = false;
     let mut names: Vec<String> = Vec::new();
     let mut csv = String::from("wavelength_nm,r,g,b\n");
@@ -323,6 +331,130 @@ pub fn parse_camera_database(bytes: &[u8], source: &str, name: &str) -> Result<M
     parse_camera(csv.as_bytes(), &format!("{source}:{name}"))
 }
 
+/// Jiang et al.'s database as distributed (`camspec_database.txt`): blocks of a camera name
+/// line and three lines (R, G, B) of whitespace-separated sensitivities, possibly after a few
+/// lines of preamble. Told apart from the long CSV by a name line followed by a numeric line.
+fn jiang_text(text: &str) -> bool {
+    let lines: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .collect();
+    lines
+        .windows(2)
+        .any(|w| numeric_row(w[0]).is_none() && numeric_row(w[1]).is_some_and(|r| r.len() > 3))
+}
+
+/// The line's whitespace-separated fields as finite numbers, or None.
+fn numeric_row(t: &str) -> Option<Vec<f64>> {
+    let v: Option<Vec<f64>> = t
+        .split_whitespace()
+        .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect();
+    v.filter(|v| !v.is_empty())
+}
+
+/// The wavelength grid of a Jiang text database: from a preamble line `400nm-720nm, step 10nm`
+/// when there is one, else the database's published 400–720 nm in 10 nm steps.
+fn jiang_grid(text: &str) -> (f64, f64, f64) {
+    for t in text.lines().take(20) {
+        let t = t.trim().to_ascii_lowercase().replace(' ', "");
+        if let Some((range, step)) = t.split_once(",step") {
+            let num = |s: &str| s.trim_end_matches("nm").parse::<f64>().ok();
+            if let (Some((a, b)), Some(st)) = (range.split_once('-'), num(step)) {
+                if let (Some(a), Some(b)) = (num(a), num(b)) {
+                    if b > a && st > 0.0 {
+                        return (a, b, st);
+                    }
+                }
+            }
+        }
+    }
+    (400.0, 720.0, 10.0)
+}
+
+/// One camera of Jiang et al.'s text database ([`jiang_text`]): the block whose name line
+/// equals `name` (case-insensitive), its three rows on the grid of [`jiang_grid`], through the
+/// same checks as [`parse_camera`].
+///
+/// # Errors
+/// [`Error::Parse`] naming the source and line when a block's row is not numeric or has another
+/// count than the grid, or when no block is named `name` (the message lists the names there are).
+fn parse_jiang_database(text: &str, source: &str, name: &str) -> Result<MultiSpectrum> {
+    let (lo, hi, step) = jiang_grid(text);
+    let count = ((hi - lo) / step).round() as usize + 1;
+    let lines: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, t)| !t.is_empty())
+        .collect();
+    let mut names = Vec::new();
+    let mut found: Option<[Vec<f64>; 3]> = None;
+    let mut i = 0;
+    while i < lines.len() {
+        let (_, t) = lines[i];
+        let starts_block = numeric_row(t).is_none()
+            && lines
+                .get(i + 1)
+                .is_some_and(|(_, n)| numeric_row(n).is_some());
+        if !starts_block {
+            i += 1;
+            continue;
+        }
+        names.push(t.to_string());
+        let mut rows: [Vec<f64>; 3] = Default::default();
+        for (c, row) in rows.iter_mut().enumerate() {
+            let Some(&(ln, r)) = lines.get(i + 1 + c) else {
+                return Err(Error::parse(
+                    source,
+                    lines[i].0,
+                    format!("camera '{t}': {} rows; expected three (R, G, B)", c),
+                ));
+            };
+            let Some(v) = numeric_row(r) else {
+                return Err(Error::parse(
+                    source,
+                    ln,
+                    format!("camera '{t}', channel {}: not a row of numbers; expected {count} sensitivities ({lo}–{hi} nm, step {step})", ["R", "G", "B"][c]),
+                ));
+            };
+            if v.len() != count {
+                return Err(Error::parse(
+                    source,
+                    ln,
+                    format!(
+                        "camera '{t}', channel {}: {} values; expected {count} ({lo}–{hi} nm, step {step})",
+                        ["R", "G", "B"][c],
+                        v.len()
+                    ),
+                ));
+            }
+            *row = v;
+        }
+        if found.is_none() && t.eq_ignore_ascii_case(name) {
+            found = Some(rows);
+        }
+        i += 4;
+    }
+    let Some(rows) = found else {
+        return Err(Error::parse(
+            source,
+            0,
+            format!(
+                "no camera named '{name}'; the database holds: {}",
+                names.join(", ")
+            ),
+        ));
+    };
+    let mut csv = String::from("wavelength_nm,r,g,b\n");
+    let [r, g, b] = &rows;
+    for (k, ((r, g), b)) in r.iter().zip(g).zip(b).enumerate() {
+        csv.push_str(&format!("{},{r},{g},{b}\n", lo + step * k as f64));
+    }
+    parse_camera(csv.as_bytes(), &format!("{source}:{name}"))
+}
+
 impl Camera {
     /// The three channels sampled linearly on `grid_nm`, which must lie inside the table's range.
     ///
@@ -356,6 +488,59 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Jiang et al.'s text database (a preamble, then name + R, G, B rows) reads the named
+    /// camera on its stated grid; the long CSV of the same numbers gives the same curves; a short
+    /// row and an unknown name are refused naming the line / the names there are.
+    #[test]
+    fn the_jiang_text_database_reads_like_its_long_csv() {
+        let row = |f: f64| {
+            (0..5)
+                .map(|k| format!("{}", f * (k + 1) as f64))
+                .collect::<Vec<_>>()
+                .join("\t")
+        };
+        let txt = format!(
+            "\nhttp://example/db.html\n400nm-440nm, step 10nm\n---------\n\nCam A\n{}\n{}\n{}\n\nCam B\n{}\n{}\n{}\n",
+            row(0.1),
+            row(0.2),
+            row(0.3),
+            row(0.01),
+            row(0.02),
+            row(0.03)
+        );
+        let b = parse_camera_database(txt.as_bytes(), "db.txt", "cam b").unwrap();
+        assert_eq!(b.wavelengths(), &[400.0, 410.0, 420.0, 430.0, 440.0]);
+        assert!((b.channel(2)[4] - 0.15).abs() < 1e-15, "{:?}", b.channel(2));
+        let mut long = String::from("camera,wavelength_nm,r,g,b\n");
+        for k in 0..5 {
+            let v = |f: f64| f * (k + 1) as f64;
+            long.push_str(&format!(
+                "Cam B,{},{},{},{}\n",
+                400 + 10 * k,
+                v(0.01),
+                v(0.02),
+                v(0.03)
+            ));
+        }
+        let l = parse_camera_database(long.as_bytes(), "db.csv", "Cam B").unwrap();
+        assert_eq!(l.wavelengths(), b.wavelengths());
+        for c in 0..3 {
+            assert_eq!(l.channel(c), b.channel(c));
+        }
+        let e = parse_camera_database(txt.as_bytes(), "db.txt", "Cam C")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("db.txt") && e.contains("Cam A, Cam B"), "{e}");
+        let short = txt.replacen(&row(0.2), "0.1\t0.2\t0.3", 1);
+        let e = parse_camera_database(short.as_bytes(), "db.txt", "Cam A")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("db.txt") && e.contains("line 8") && e.contains("3 values; expected 5"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn the_default_camera_has_three_non_negative_channels() {

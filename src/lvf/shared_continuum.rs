@@ -8,7 +8,7 @@
 //! C_c(u) = V(u) · Σ_λ S(λ)·Q_c(λ)·g(λ − λ(u)) · Δλ,      S(λ) = Σ_k β_k·B_k(λ),  β_k ≥ 0
 //! ```
 //!
-//! with Q_c the camera's spectral sensitivities (`lvf calibrate --camera DB.csv:NAME`), g the
+//! with Q_c the camera's spectral sensitivities (`lvf calibrate --camera DB:NAME`), g the
 //! passband at the fitted FWHM, λ(u) the map being fitted and B_k a uniform cubic B-spline in
 //! wavelength (non-negative coefficients → S ≥ 0 everywhere). The three channels share the K
 //! coefficients β, against 3·(K+3) for three free per-channel splines

@@ -163,8 +163,8 @@ pub struct CalibrateArgs {
     /// the axis is solved too, without only its variation across the axis is used.
     #[arg(long, requires = "flat")]
     pub flat_spectrum: Option<String>,
-    /// The camera's sensitivities (CSV wavelength_nm,r,g,b, DB.csv:NAME of the Jiang
-    /// database, or Academy spectral-data JSON as in rawtoaces-data): adds a continuum spectrum shared by the three channels to the candidates
+    /// The camera's sensitivities (CSV wavelength_nm,r,g,b, DB:NAME of the Jiang
+    /// database (long CSV or its camspec_database.txt), or Academy spectral-data JSON as in rawtoaces-data): adds a continuum spectrum shared by the three channels to the candidates
     /// (the image must be linear raw, channels as in the table), and is the camera
     /// --flat-spectrum is seen through. Give the image's own camera: σ assumes its curves, and
     /// at 5 % noise another camera's curves can move the map by ≈ 1 nm without raising σ (at
@@ -332,7 +332,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
             let spectrum = match (&a.flat_spectrum, &camera_table) {
                 (None, _) => None,
                 (Some(_), None) => anyhow::bail!(
-                    "--flat-spectrum needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE.csv:NAME"
+                    "--flat-spectrum needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE:NAME"
                 ),
                 (Some(s), Some(cam)) => Some(FlatSpectrum {
                     shape: ContinuumShape::parse(s)

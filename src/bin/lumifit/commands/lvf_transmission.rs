@@ -52,7 +52,8 @@ pub struct TransmissionArgs {
     /// Target reflectance CSV wavelength_nm,value.
     #[arg(long)]
     pub target: Option<PathBuf>,
-    /// Camera sensitivities: CSV wavelength_nm,r,g,b, DATABASE.csv:NAME, or Academy spectral-data
+    /// Camera sensitivities: CSV wavelength_nm,r,g,b, DATABASE:NAME (a long CSV
+    /// camera,wavelength_nm,r,g,b or Jiang's camspec_database.txt), or Academy spectral-data
     /// JSON as in rawtoaces-data (default: calib/camera_default.csv).
     #[arg(long)]
     pub camera: Option<PathBuf>,

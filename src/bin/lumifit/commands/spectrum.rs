@@ -36,7 +36,8 @@ pub struct RecoverArgs {
     /// over its pixel window, peak 1).
     #[arg(long)]
     pub bands: PathBuf,
-    /// Camera sensitivities: CSV `wavelength_nm,r,g,b`, `DATABASE.csv:NAME`, or Academy
+    /// Camera sensitivities: CSV `wavelength_nm,r,g,b`, `DATABASE:NAME` (a long CSV or Jiang's
+    /// `camspec_database.txt`), or Academy
     /// spectral-data JSON as in rawtoaces-data (default: calib/camera_default.csv, Nikon 5100 NPL).
     #[arg(long)]
     pub camera: Option<PathBuf>,

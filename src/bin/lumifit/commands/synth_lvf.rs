@@ -47,7 +47,8 @@ pub struct LvfCaptureArgs {
     /// The LVF: truth JSON of `synth lvf-hg --truth` or an lvf.json of `lvf calibrate` (then --size is required).
     #[arg(long)]
     pub lvf: PathBuf,
-    /// Camera sensitivities: CSV wavelength_nm,r,g,b, DATABASE.csv:NAME, or Academy spectral-data
+    /// Camera sensitivities: CSV wavelength_nm,r,g,b, DATABASE:NAME (a long CSV
+    /// camera,wavelength_nm,r,g,b or Jiang's camspec_database.txt), or Academy spectral-data
     /// JSON as in rawtoaces-data (default: calib/camera_default.csv, Nikon 5100 NPL).
     #[arg(long)]
     pub camera: Option<PathBuf>,
@@ -120,8 +121,9 @@ pub struct LvfHgArgs {
     /// Lamp: hg, hg-weak (weak 405/408 nm), cfl or CSV wavelength_nm[,relative_power].
     #[arg(long, default_value = "hg")]
     pub lamp: String,
-    /// Camera sensitivities CSV wavelength_nm,r,g,b, DATABASE.csv:NAME (long format
-    /// camera,wavelength_nm,r,g,b, e.g. the Jiang 2013 database), or Academy spectral-data JSON as
+    /// Camera sensitivities CSV wavelength_nm,r,g,b, DATABASE:NAME (long format
+    /// camera,wavelength_nm,r,g,b, e.g. the Jiang 2013 database, or that database's own
+    /// camspec_database.txt), or Academy spectral-data JSON as
     /// in rawtoaces-data (default: calib/camera_default.csv, Nikon 5100 NPL).
     #[arg(long)]
     pub camera: Option<PathBuf>,
