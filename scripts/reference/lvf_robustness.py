@@ -3,7 +3,7 @@ through `lumifit lvf calibrate`: other FWHMs and dispersions, a reversed filter,
 few rows, an off-range start, weak lines missing from the lamp list, a bowed (quadratic) map,
 passbands that are not Gaussian, saturation, other cameras, 5 % noise, an 8-bit PNG, a filter
 rotated in the image (slanted iso-wavelength lines), an Hg-Ar lamp's unlisted Ar I lines, dust
-shadows and hot pixels.
+shadows and hot pixels, and a filter along y.
 
     cargo build --release
     python3 scripts/reference/lvf_robustness.py [--lumifit target/release/lumifit] [--cases base,fwhm15]
@@ -24,7 +24,9 @@ exp(-ln2 |2 d / FWHM|^beta) by the trapezoid rule on 41 points per pixel. A rota
 sees the map at px + (y - (H-1)/2) tan(angle), its profile read off a 0.05 px grid by linear
 interpolation; the truth is the middle row's map. Dust: soft-edged dark discs (1 - depth
 exp(-(r/R)^4)) multiplying the image; hot pixels: 200 pixels of one channel raised by 0.1-0.5 of
-full scale (a fixed generator, seed 99).
+full scale (a fixed generator, seed 99). "Filter along y": the image transposed (rows and columns
+swapped, noise and dust included) and calibrated with --axis y; it must give what the untransposed
+image gives with --axis x.
 """
 
 import argparse
@@ -89,6 +91,8 @@ CASES = [
     ("Hg-Ar lamp: Ar I lines not in the list", {"argon": True}, []),
     ("dust shadows (3 specks, 35 % deep)", {"dust": True}, []),
     ("hot pixels (200, 0.1-0.5 of full scale)", {"hot": True}, []),
+    ("filter along y (case 34 transposed: rotated 3 deg)", {"rotate_deg": 3.0, "transpose": True}, []),
+    ("filter along y (case 36 transposed: dust)", {"dust": True, "transpose": True}, []),
 ]
 
 
@@ -185,6 +189,8 @@ def render(p, out):
         hot = np.random.default_rng(99)
         img[hot.integers(0, H, 200), hot.integers(0, W, 200), hot.integers(0, 3, 200)] += hot.uniform(0.1, 0.5, 200)
     img = np.clip(img, 0, 1)
+    if p.get("transpose"):  # the filter's axis along y: the same image with rows and columns swapped
+        img = np.ascontiguousarray(img.transpose(1, 0, 2))
     bits = p.get("bits", 16)
     png(out, np.round(img * (2**bits - 1)), bits)
     xs = np.linspace(-50, W + 50, 400001)
@@ -207,7 +213,8 @@ def main():
             img = Path(tmp) / f"case{i}.png"
             truth = render(p, img)
             out = Path(tmp) / f"case{i}.json"
-            r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", "x", "--out", str(out), *extra],
+            axis = "y" if p.get("transpose") else "x"
+            r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", axis, "--out", str(out), *extra],
                                capture_output=True, text=True)
             opts = " ".join(extra) or "defaults"
             if r.returncode != 0:
