@@ -13,7 +13,7 @@ use serde::Deserialize;
 
 use crate::lvf::calibration::{Band, LvfCalibration, MapKind, LVF_SCHEMA};
 use crate::lvf::fit::Passband;
-use crate::lvf::profile::{extract_profile_tilted, Axis, Tilt};
+use crate::lvf::profile::{extract_profile_tilted, repair_known_patches, Axis, Occlusion, Tilt};
 
 /// The part of `lvf.json` the downstream tools read.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,6 +36,11 @@ pub struct LvfGeometry {
     /// The slant of the iso-wavelength lines the calibration's profile was averaged along
     /// (lvf.json's `tilt`; `None`: along the rows); captures are read along the same lines.
     pub tilt: Option<Tilt>,
+    /// Dark patches (dust) the calibration found on the lamp photo (lvf.json's
+    /// `diagnostics.occlusions.patches`; empty when none or not looked for): captures through
+    /// the same filter are shadowed at the same pixels, and [`LvfGeometry::band_readings`]
+    /// replaces them there ([`repair_known_patches`]).
+    pub occlusions: Vec<Occlusion>,
     /// The sample bands.
     pub bands: Vec<Band>,
 }
@@ -68,6 +73,22 @@ struct LvfFile {
     #[serde(default)]
     tilt: Option<Tilt>,
     bands: Vec<Band>,
+    #[serde(default)]
+    diagnostics: Option<DiagnosticsFile>,
+}
+
+/// The part of lvf.json's `diagnostics` the readings use.
+#[derive(Debug, Deserialize)]
+struct DiagnosticsFile {
+    #[serde(default)]
+    occlusions: Option<OcclusionsFile>,
+}
+
+/// `diagnostics.occlusions`.
+#[derive(Debug, Deserialize)]
+struct OcclusionsFile {
+    #[serde(default)]
+    patches: Vec<Occlusion>,
 }
 
 /// The `map` object of `lvf.json` (its covariance is not needed downstream).
@@ -180,6 +201,11 @@ impl LvfGeometry {
             fwhm_sigma_nm,
             passband,
             tilt: f.tilt,
+            occlusions: f
+                .diagnostics
+                .and_then(|d| d.occlusions)
+                .map(|o| o.patches)
+                .unwrap_or_default(),
             bands,
         })
     }
@@ -196,6 +222,7 @@ impl LvfGeometry {
             // written by Passband::report, so it reads back; Gaussian only for a hand-made value
             passband: Passband::from_report(&cal.passband, source).unwrap_or(Passband::Gaussian),
             tilt: cal.tilt,
+            occlusions: Vec::new(),
             bands: cal.bands.clone(),
         }
     }
@@ -258,14 +285,16 @@ impl LvfGeometry {
     }
 
     /// Band readings of a capture through the LVF: the profile across the ROI (read along the
-    /// calibration's slanted iso-wavelength lines when it has a `tilt`) averaged over each band's
-    /// window.
+    /// calibration's slanted iso-wavelength lines when it has a `tilt`, with the lamp photo's dust
+    /// patches replaced from the other strips, [`LvfGeometry::occlusions`]) averaged over each
+    /// band's window.
     ///
     /// # Errors
     /// The ROI errors of [`crate::lvf::extract_profile`]; [`Error::InvalidArgument`] when a band's window
     /// holds no unsaturated position, or the capture is all zero.
     pub fn band_readings(&self, frame: &RgbFrame) -> Result<BandReadings> {
-        let profile = extract_profile_tilted(frame, self.roi, self.axis, self.tilt.as_ref())?;
+        let mut profile = extract_profile_tilted(frame, self.roi, self.axis, self.tilt.as_ref())?;
+        repair_known_patches(&mut profile, &self.occlusions);
         let mut rgb = Vec::with_capacity(self.bands.len());
         let mut std = Vec::with_capacity(self.bands.len());
         let mut pixels = Vec::with_capacity(self.bands.len());

@@ -51,8 +51,8 @@ pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;
 pub use profile::{
     estimate_tilt, extract_profile, extract_profile_straightened, extract_profile_tilted,
-    prepare_profile, repair_occlusions, Axis, Occlusion, PreparedProfile, Profile, Tilt,
-    TiltChoice, TiltEstimate,
+    prepare_profile, repair_known_patches, repair_occlusions, Axis, Occlusion, PreparedProfile,
+    Profile, Tilt, TiltChoice, TiltEstimate,
 };
 pub use shared_continuum::CameraResponse;
 pub use synth::{render_lvf, LvfSynthSpec, LvfTruth};

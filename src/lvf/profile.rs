@@ -765,7 +765,7 @@ impl PreparedProfile {
 
 /// A local dark patch in one strip across the axis (dust on the filter or the sensor, a
 /// defect) that [`repair_occlusions`] replaced.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Occlusion {
     /// The strip's mean position across the axis (source px).
     pub across_px: f64,
@@ -794,6 +794,112 @@ impl Occlusion {
             100.0 * self.depth
         )
     }
+}
+
+/// Positions either side of a known patch on which [`repair_known_patches`] measures the strip's
+/// ratio to the other strips.
+pub const PATCH_FLANK: usize = 15;
+
+/// Replaces patches found on another image of the same setup (the lamp photo's
+/// [`repair_occlusions`], recorded in lvf.json): dust on the filter shadows every photo through
+/// it at the same pixels. For each patch, the strip nearest its `across_px` (within half the
+/// strips' spacing) is, per channel, the other strips' mean times the strip's own ratio to it,
+/// fitted as a straight line over [`PATCH_FLANK`] positions either side of the patch, inside
+/// `along_px`; the profile's mean is corrected by the same amount. Channels without a usable
+/// ratio (fewer than 3 flank positions where the others' mean exceeds [`OCCLUSION_MIN_LEVEL`]
+/// of its peak) are left as they are. Returns how many patches were replaced.
+pub fn repair_known_patches(profile: &mut Profile, patches: &[Occlusion]) -> usize {
+    let n = profile.px.len();
+    let ns = profile.strips.len();
+    if ns < 2 || n < 3 {
+        return 0;
+    }
+    let spacing =
+        (profile.strips[ns - 1].across_px - profile.strips[0].across_px).abs() / (ns - 1) as f64;
+    let ok = |st: &Strip, i: usize| st.counts[i] > 0 && (0..3).all(|c| st.values[c][i].is_finite());
+    let mut done = 0;
+    for patch in patches {
+        let Some(k) = (0..ns)
+            .filter(|&k| (profile.strips[k].across_px - patch.across_px).abs() <= 0.5 * spacing)
+            .min_by(|&a, &b| {
+                let d = |k: usize| (profile.strips[k].across_px - patch.across_px).abs();
+                d(a).total_cmp(&d(b))
+            })
+        else {
+            continue;
+        };
+        let inside: Vec<usize> = (0..n)
+            .filter(|&i| {
+                profile.px[i] >= patch.along_px[0] - 0.5 && profile.px[i] <= patch.along_px[1] + 0.5
+            })
+            .collect();
+        let (Some(&first), Some(&last)) = (inside.first(), inside.last()) else {
+            continue;
+        };
+        let flank: Vec<usize> = (first.saturating_sub(PATCH_FLANK)..first)
+            .chain(last + 1..(last + 1 + PATCH_FLANK).min(n))
+            .collect();
+        // the other strips' mean per channel at position i
+        let others = |c: usize, i: usize| -> Option<f64> {
+            let (mut sum, mut m) = (0.0, 0.0);
+            for (j, st) in profile.strips.iter().enumerate() {
+                if j != k && ok(st, i) {
+                    sum += st.counts[i] as f64 * st.values[c][i];
+                    m += st.counts[i] as f64;
+                }
+            }
+            (m > 0.0).then(|| sum / m)
+        };
+        let mut replaced = false;
+        let mut new_vals: Vec<(usize, usize, f64)> = Vec::new();
+        for c in 0..3 {
+            let peak = (0..n)
+                .filter_map(|i| others(c, i))
+                .fold(0.0_f64, |a, b| a.max(b.abs()));
+            if peak <= 0.0 {
+                continue;
+            }
+            // (px, ratio) on the flanks
+            let pts: Vec<(f64, f64)> = flank
+                .iter()
+                .filter(|&&i| ok(&profile.strips[k], i))
+                .filter_map(|&i| {
+                    let o = others(c, i)?;
+                    (o > OCCLUSION_MIN_LEVEL * peak)
+                        .then(|| (profile.px[i], profile.strips[k].values[c][i] / o))
+                })
+                .collect();
+            if pts.len() < 3 {
+                continue;
+            }
+            let m = pts.len() as f64;
+            let xm = pts.iter().map(|p| p.0).sum::<f64>() / m;
+            let ym = pts.iter().map(|p| p.1).sum::<f64>() / m;
+            let sxx: f64 = pts.iter().map(|p| (p.0 - xm).powi(2)).sum();
+            let slope = if sxx > 0.0 {
+                pts.iter().map(|p| (p.0 - xm) * (p.1 - ym)).sum::<f64>() / sxx
+            } else {
+                0.0
+            };
+            for &i in &inside {
+                if let Some(o) = others(c, i) {
+                    new_vals.push((c, i, (ym + slope * (profile.px[i] - xm)) * o));
+                }
+            }
+            replaced = true;
+        }
+        for (c, i, v) in new_vals {
+            let st = &mut profile.strips[k];
+            if st.counts[i] == 0 || !st.values[c][i].is_finite() {
+                continue;
+            }
+            let w = st.counts[i] as f64 / profile.counts[i].max(1) as f64;
+            profile.values[c][i] += w * (v - st.values[c][i]);
+            st.values[c][i] = v;
+        }
+        done += usize::from(replaced);
+    }
+    done
 }
 
 /// Finds and replaces local dark patches of single strips: dust on the filter casts a soft

@@ -127,7 +127,8 @@ pub struct CalibrateArgs {
     pub tilt: String,
     /// Keep local dark patches of single strips across the axis (dust shadows, defects) in the
     /// profile; by default each is replaced by that strip's prediction from the other strips
-    /// and listed in lvf.json (diagnostics.occlusions).
+    /// and listed in lvf.json (diagnostics.occlusions), and `spectrum recover` / `lvf
+    /// transmission` replace the same patches in the captures.
     #[arg(long)]
     pub keep_occlusions: bool,
     /// Weight each profile sample by its noise estimated from the profile (read + shot noise,
