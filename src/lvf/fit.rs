@@ -49,6 +49,15 @@ use crate::math::minimize::brent_min;
 /// Points after which [`Passband::eval_uniform`]'s Gaussian recurrence restarts from an exact
 /// `exp`.
 const RECURRENCE_RESTART: usize = 32;
+/// The Gaussian passband is 0 beyond this many standard deviations …
+const GAUSSIAN_CUTOFF_SIGMA: f64 = 8.0;
+/// … and the generalised normal where its exponent ln2·|2Δλ/FWHM|^β exceeds this.
+const GENNORM_CUTOFF_EXPONENT: f64 = 40.0;
+
+/// The Gaussian's standard deviation for a full width at half maximum `fwhm`.
+fn gaussian_sigma(fwhm: f64) -> f64 {
+    fwhm / (8.0 * std::f64::consts::LN_2).sqrt()
+}
 
 /// Passband shape g(Δλ).
 #[derive(Debug, Clone, PartialEq)]
@@ -171,8 +180,6 @@ impl Passband {
         }
     }
 
-    /// g(Δλ) for a passband of full width at half maximum `fwhm`.
-    #[inline]
     /// `out[m]` = [`Passband::eval`]`(d0 + m·step, fwhm)` for m = 0, 1, …: the passband on a
     /// uniform grid. The Gaussian follows the grid by a multiplicative recurrence (two
     /// multiplications per point instead of an `exp`, restarted exactly every
@@ -181,7 +188,7 @@ impl Passband {
     pub fn eval_uniform(&self, d0: f64, step: f64, fwhm: f64, out: &mut [f64]) {
         match self {
             Passband::Gaussian => {
-                let s = fwhm / (8.0 * std::f64::consts::LN_2).sqrt();
+                let s = gaussian_sigma(fwhm);
                 let dz = step / s;
                 // exp(−z²/2) at z + dz = exp(−z²/2) · exp(−z·dz − dz²/2); the second factor
                 // itself is multiplied by q = exp(−dz²) per step
@@ -193,7 +200,11 @@ impl Passband {
                     let mut r = (-z0 * dz - 0.5 * dz * dz).exp();
                     for (j, o) in chunk.iter_mut().enumerate() {
                         let z = z0 + j as f64 * dz;
-                        *o = if z.abs() > 8.0 { 0.0 } else { t };
+                        *o = if z.abs() > GAUSSIAN_CUTOFF_SIGMA {
+                            0.0
+                        } else {
+                            t
+                        };
                         t *= r;
                         r *= q;
                     }
@@ -210,9 +221,9 @@ impl Passband {
     /// Half-width (nm) beyond which [`Passband::eval`] is exactly 0 (∞ when it never is).
     pub fn support_nm(&self, fwhm: f64) -> f64 {
         match self {
-            Passband::Gaussian => 8.0 * fwhm / (8.0 * std::f64::consts::LN_2).sqrt(),
+            Passband::Gaussian => GAUSSIAN_CUTOFF_SIGMA * gaussian_sigma(fwhm),
             Passband::GenNormal { beta } if *beta > 0.0 => {
-                0.5 * fwhm * (40.0 / std::f64::consts::LN_2).powf(1.0 / beta)
+                0.5 * fwhm * (GENNORM_CUTOFF_EXPONENT / std::f64::consts::LN_2).powf(1.0 / beta)
             }
             Passband::GenNormal { .. } => f64::INFINITY,
             Passband::Measured {
@@ -224,12 +235,13 @@ impl Passband {
         }
     }
 
+    /// g(Δλ) for a passband of full width at half maximum `fwhm`.
+    #[inline]
     pub fn eval(&self, delta_nm: f64, fwhm: f64) -> f64 {
         match self {
             Passband::Gaussian => {
-                let s = fwhm / (8.0 * std::f64::consts::LN_2).sqrt();
-                let z = delta_nm / s;
-                if z.abs() > 8.0 {
+                let z = delta_nm / gaussian_sigma(fwhm);
+                if z.abs() > GAUSSIAN_CUTOFF_SIGMA {
                     0.0
                 } else {
                     (-0.5 * z * z).exp()
@@ -237,7 +249,7 @@ impl Passband {
             }
             Passband::GenNormal { beta } => {
                 let e = std::f64::consts::LN_2 * (2.0 * delta_nm / fwhm).abs().powf(*beta);
-                if e > 40.0 {
+                if e > GENNORM_CUTOFF_EXPONENT {
                     0.0
                 } else {
                     (-e).exp()
