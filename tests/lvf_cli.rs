@@ -284,23 +284,12 @@ fn the_help_defaults_of_the_continuum_lists_are_the_library_constants() {
 fn a_passband_shape_rendered_by_synth_is_fitted_by_calibrate_and_carried_by_lvf_json() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
-    let o = lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--passband",
-        "gennorm:2.5",
-        "--size",
-        "1200x40",
-        "--out",
-        &p("hg.tiff"),
-        "--truth",
-        &p("truth.json"),
-        "--seed",
-        "4",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let truth: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(p("truth.json")).unwrap()).unwrap();
+    common::synth_hg(
+        dir.path(),
+        &["--passband", "gennorm:2.5", "--size", "1200x40"],
+        4,
+    );
+    let truth = common::read_json(p("truth.json"));
     assert_eq!(truth["passband"]["beta"], 2.5);
     let o = lumifit(&[
         "lvf",

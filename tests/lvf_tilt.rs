@@ -154,21 +154,7 @@ fn calibrate(image: &str, extra: &[&str], out: &str) -> serde_json::Value {
 fn synth_renders_a_slant_that_calibrate_records_and_the_geometry_reads_back() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
-    let o = lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--tilt",
-        "2.5",
-        "--size",
-        "1200x80",
-        "--out",
-        &p("hg.tiff"),
-        "--truth",
-        &p("truth.json"),
-        "--seed",
-        "3",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    common::synth_hg(dir.path(), &["--tilt", "2.5", "--size", "1200x80"], 3);
     let truth = read_json(p("truth.json"));
     assert_eq!(truth["tilt_deg"], 2.5);
     let cal = calibrate(&p("hg.tiff"), &[], &p("lvf.json"));

@@ -99,3 +99,16 @@ pub fn khronos_validator<P: AsRef<std::ffi::OsStr>>(files: &[P]) -> Option<Strin
     assert!(o.status.success(), "validator: {report}{}", stderr(&o));
     Some(report)
 }
+
+/// `lumifit synth lvf-hg EXTRA… --out DIR/hg.tiff --truth DIR/truth.json --seed SEED`, which must
+/// succeed; returns the image and truth paths.
+pub fn synth_hg(dir: &Path, extra: &[&str], seed: u64) -> (String, String) {
+    let (img, truth) = (p(dir, "hg.tiff"), p(dir, "truth.json"));
+    let seed = seed.to_string();
+    let mut args = vec!["synth", "lvf-hg"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", &img, "--truth", &truth, "--seed", &seed]);
+    let o = lumifit(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (img, truth)
+}
