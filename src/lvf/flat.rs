@@ -69,6 +69,21 @@ pub struct FlatSpectrum {
     pub camera_name: String,
 }
 
+impl FlatSpectrum {
+    /// The source spectrum `shape` (flat, blackbody:K, cfl; [`ContinuumShape::parse`]) seen
+    /// through `camera`.
+    ///
+    /// # Errors
+    /// Those of [`ContinuumShape::parse`].
+    pub fn parse(shape: &str, camera: &crate::io::camera::Camera) -> Result<Self> {
+        Ok(FlatSpectrum {
+            shape: ContinuumShape::parse(shape)?,
+            camera: camera.curves.clone(),
+            camera_name: camera.source.clone(),
+        })
+    }
+}
+
 /// A flat-field photo reduced to its profile over the lamp's ROI.
 #[derive(Debug, Clone)]
 pub struct FlatField {
@@ -81,14 +96,34 @@ pub struct FlatField {
 }
 
 impl FlatField {
-    /// Reduces `flat` over `roi` (along the lamp photo's slanted iso-wavelength lines when
+    /// Reads the flat-field photo at `path` and reduces it over `roi` (along the lamp photo's slanted iso-wavelength lines when
     /// `tilt` is given, so that both profiles average the same pixels), checking that it fits the lamp photo of size `lamp_size`
     /// (source px).
     ///
     /// # Errors
     /// [`Error::InvalidArgument`] naming `--flat` and the file when the flat's size differs from
     /// the lamp photo's, more than [`FLAT_SATURATED_MAX`] of its ROI pixels are saturated, or it
-    /// is darker than [`FLAT_DARK_MIN`] of full scale.
+    /// is darker than [`FLAT_DARK_MIN`] of full scale; the reader's errors naming the file.
+    /// Returns the flat and the reader's warnings (e.g. an 8-bit file taken as sRGB).
+    pub fn read(
+        path: &std::path::Path,
+        lamp_size: (usize, usize),
+        roi: [usize; 4],
+        axis: Axis,
+        tilt: Option<&Tilt>,
+        spectrum: Option<FlatSpectrum>,
+    ) -> Result<(Self, Vec<String>)> {
+        let (frame, info) = crate::io::series::read_frame(path)?;
+        Ok((
+            Self::new(&frame, lamp_size, roi, axis, tilt, spectrum)?,
+            info.warnings,
+        ))
+    }
+
+    /// [`FlatField::read`] of a frame already read.
+    ///
+    /// # Errors
+    /// As [`FlatField::read`], but for the reading.
     pub fn new(
         flat: &RgbFrame,
         lamp_size: (usize, usize),

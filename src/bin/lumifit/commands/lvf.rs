@@ -10,7 +10,6 @@ use lumifit::io::sources::{file_of, resolve_lamp, resolve_passband};
 use lumifit::io::Outputs;
 use lumifit::lvf::fit::Direction;
 use lumifit::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
-use lumifit::lvf::synth::ContinuumShape;
 use lumifit::lvf::{
     calibrate_peaks, calibrate_whole_profile, Axis, BackgroundChoice, FitOptions, MapChoice,
 };
@@ -335,25 +334,23 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
                 (Some(_), None) => anyhow::bail!(
                     "--flat-spectrum needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE:NAME"
                 ),
-                (Some(s), Some(cam)) => Some(FlatSpectrum {
-                    shape: ContinuumShape::parse(s)
+                (Some(s), Some(cam)) => Some(
+                    FlatSpectrum::parse(s, cam)
                         .map_err(|e| anyhow::anyhow!("--flat-spectrum: {e}"))?,
-                    camera: cam.curves.clone(),
-                    camera_name: cam.source.clone(),
-                }),
+                ),
             };
-            let (flat_frame, flat_info) = read_frame(path)?;
-            for w in &flat_info.warnings {
-                eprintln!("warning: {}: {w}", path.display());
-            }
-            Some(FlatField::new(
-                &flat_frame,
+            let (f, warnings) = FlatField::read(
+                path,
                 frame.source_size(),
                 roi,
                 axis,
                 profile.tilt.as_ref(),
                 spectrum,
-            )?)
+            )?;
+            for w in &warnings {
+                eprintln!("warning: {}: {w}", path.display());
+            }
+            Some(f)
         }
     };
     let opts = FitOptions {
