@@ -71,15 +71,15 @@ pub struct FlatSpectrum {
 
 impl FlatSpectrum {
     /// The source spectrum `shape` (flat, blackbody:K, cfl; [`ContinuumShape::parse`]) seen
-    /// through `camera`.
+    /// through the sensitivities `camera` (named `camera_name` in the report).
     ///
     /// # Errors
     /// Those of [`ContinuumShape::parse`].
-    pub fn parse(shape: &str, camera: &crate::io::camera::Camera) -> Result<Self> {
+    pub fn parse(shape: &str, camera: &MultiSpectrum, camera_name: &str) -> Result<Self> {
         Ok(FlatSpectrum {
             shape: ContinuumShape::parse(shape)?,
-            camera: camera.curves.clone(),
-            camera_name: camera.source.clone(),
+            camera: camera.clone(),
+            camera_name: camera_name.to_string(),
         })
     }
 }
@@ -96,34 +96,14 @@ pub struct FlatField {
 }
 
 impl FlatField {
-    /// Reads the flat-field photo at `path` and reduces it over `roi` (along the lamp photo's slanted iso-wavelength lines when
+    /// Reduces `flat` over `roi` (along the lamp photo's slanted iso-wavelength lines when
     /// `tilt` is given, so that both profiles average the same pixels), checking that it fits the lamp photo of size `lamp_size`
     /// (source px).
     ///
     /// # Errors
     /// [`Error::InvalidArgument`] naming `--flat` and the file when the flat's size differs from
     /// the lamp photo's, more than [`FLAT_SATURATED_MAX`] of its ROI pixels are saturated, or it
-    /// is darker than [`FLAT_DARK_MIN`] of full scale; the reader's errors naming the file.
-    /// Returns the flat and the reader's warnings (e.g. an 8-bit file taken as sRGB).
-    pub fn read(
-        path: &std::path::Path,
-        lamp_size: (usize, usize),
-        roi: [usize; 4],
-        axis: Axis,
-        tilt: Option<&Tilt>,
-        spectrum: Option<FlatSpectrum>,
-    ) -> Result<(Self, Vec<String>)> {
-        let (frame, info) = crate::io::series::read_frame(path)?;
-        Ok((
-            Self::new(&frame, lamp_size, roi, axis, tilt, spectrum)?,
-            info.warnings,
-        ))
-    }
-
-    /// [`FlatField::read`] of a frame already read.
-    ///
-    /// # Errors
-    /// As [`FlatField::read`], but for the reading.
+    /// is darker than [`FLAT_DARK_MIN`] of full scale.
     pub fn new(
         flat: &RgbFrame,
         lamp_size: (usize, usize),

@@ -335,21 +335,22 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
                     "--flat-spectrum needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE:NAME"
                 ),
                 (Some(s), Some(cam)) => Some(
-                    FlatSpectrum::parse(s, cam)
+                    FlatSpectrum::parse(s, &cam.curves, &cam.source)
                         .map_err(|e| anyhow::anyhow!("--flat-spectrum: {e}"))?,
                 ),
             };
-            let (f, warnings) = FlatField::read(
-                path,
+            let (flat_frame, flat_info) = read_frame(path)?;
+            for w in &flat_info.warnings {
+                eprintln!("warning: {}: {w}", path.display());
+            }
+            let f = FlatField::new(
+                &flat_frame,
                 frame.source_size(),
                 roi,
                 axis,
                 profile.tilt.as_ref(),
                 spectrum,
             )?;
-            for w in &warnings {
-                eprintln!("warning: {}: {w}", path.display());
-            }
             Some(f)
         }
     };
