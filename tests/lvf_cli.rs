@@ -154,6 +154,71 @@ fn out_of_range_knot_and_smoothness_lists_exit_2_naming_the_flag() {
     }
 }
 
+/// A bad `--flat-spectrum` is refused naming that flag (it was named `--continuum-spectrum`, the
+/// synthesiser's flag, by both commands), exit 2, nothing written: by `synth lvf-hg --flat-out`
+/// before anything is rendered, and by `lvf calibrate --flat`.
+#[test]
+fn a_bad_flat_spectrum_is_refused_naming_its_own_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| common::p(dir.path(), n);
+    let o = lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--size",
+        "300x40",
+        "--out",
+        &p("hg.tiff"),
+        "--truth",
+        &p("truth.json"),
+        "--flat-out",
+        &p("flat.tiff"),
+        "--flat-spectrum",
+        "blackbody:100",
+    ]);
+    common::assert_rejected(&o, &["--flat-spectrum", "blackbody:100", "500 ≤ K ≤ 50000"]);
+    assert!(
+        !stderr(&o).contains("--continuum-spectrum"),
+        "{}",
+        stderr(&o)
+    );
+    for f in ["hg.tiff", "truth.json", "flat.tiff"] {
+        assert!(
+            !dir.path().join(f).exists(),
+            "{f} written on a refused flag"
+        );
+    }
+    let (img, _) = common::synth_hg(
+        dir.path(),
+        &["--size", "300x40", "--flat-out", &p("flat.tiff")],
+        1,
+    );
+    let o = lumifit(&[
+        "lvf",
+        "calibrate",
+        &img,
+        "--axis",
+        "x",
+        "--flat",
+        &p("flat.tiff"),
+        "--flat-spectrum",
+        "halogen",
+        "--camera",
+        "calib/camera_default.csv",
+        "--out",
+        &p("lvf.json"),
+    ]);
+    common::assert_rejected(&o, &["--flat-spectrum", "'halogen'", "blackbody:K"]);
+    assert!(
+        !stderr(&o).contains("--continuum-spectrum"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(
+        !dir.path().join("lvf.json").exists(),
+        "no output on failure"
+    );
+}
+
 /// Issue 13 ("garbage is detected"): `lvf calibrate` on a frame that is not a lamp photo (a
 /// broadband blackbody through the LVF) and on a CFL image with `--lamp hg` must not exit 0
 /// silently: either exit 2 with a message, or warnings on stderr and in lvf.json. Without

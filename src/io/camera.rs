@@ -238,6 +238,16 @@ pub fn parse_camera_json(bytes: &[u8], source: &str) -> Result<MultiSpectrum> {
 }
 
 /// `FILE.csv:NAME` with an existing FILE.csv: one camera of a database table.
+/// The file `--camera` names: the path itself when it is a file, else the database of
+/// `DATABASE:NAME` when that is a file, else the path as given (for the output-path check, which
+/// must list every file a run reads).
+pub fn camera_file(p: &Path) -> std::path::PathBuf {
+    if p.is_file() {
+        return p.to_path_buf();
+    }
+    database_entry(p).map_or_else(|| p.to_path_buf(), |(file, _)| file)
+}
+
 fn database_entry(p: &Path) -> Option<(std::path::PathBuf, String)> {
     let s = p.to_str()?;
     let (file, name) = s.rsplit_once(':')?;

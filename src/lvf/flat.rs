@@ -74,10 +74,10 @@ impl FlatSpectrum {
     /// through the sensitivities `camera` (named `camera_name` in the report).
     ///
     /// # Errors
-    /// Those of [`ContinuumShape::parse`].
+    /// Those of [`ContinuumShape::parse`], naming `--flat-spectrum`.
     pub fn parse(shape: &str, camera: &MultiSpectrum, camera_name: &str) -> Result<Self> {
         Ok(FlatSpectrum {
-            shape: ContinuumShape::parse(shape)?,
+            shape: ContinuumShape::parse("--flat-spectrum", shape)?,
             camera: camera.clone(),
             camera_name: camera_name.to_string(),
         })

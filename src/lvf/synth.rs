@@ -216,11 +216,11 @@ pub enum ContinuumShape {
 }
 
 impl ContinuumShape {
-    /// Parses `flat`, `cfl` or `blackbody:K`.
+    /// Parses `flat`, `cfl` or `blackbody:K`, the value of the flag `flag`.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] naming `--continuum-spectrum`.
-    pub fn parse(s: &str) -> Result<Self> {
+    /// [`Error::Flag`] naming `flag`, what was given and what is expected.
+    pub fn parse(flag: &str, s: &str) -> Result<Self> {
         let t = s.trim().to_ascii_lowercase();
         if t == "flat" {
             return Ok(ContinuumShape::Flat);
@@ -235,8 +235,8 @@ impl ContinuumShape {
                 }
             }
         }
-        Err(Error::invalid(
-            "--continuum-spectrum",
+        Err(Error::flag(
+            flag,
             format!("'{s}': expected flat, cfl or blackbody:K with 500 ≤ K ≤ 50000"),
         ))
     }

@@ -1,6 +1,8 @@
 //! Acquisition glue: the LVF domain (`lvf`: geometry, band files, band-transmission solve) joined
 //! with the spectral-recovery domain (`recovery`, which knows no LVF) and the readers of `io`.
 //!
+//! - [`calibrate_lamp`] (`lumifit lvf calibrate`): a lamp photo, optionally a flat-field photo
+//!   and the camera's sensitivities become an [`crate::lvf::LvfCalibration`] and its `lvf.json`.
 //! - [`band_transmissions`] (`lumifit lvf transmission`): `lvf.json`, `captures.csv`, the gel
 //!   table, the light source, the target and the camera become one
 //!   [`TransmissionProblem`] on a 1 nm quadrature grid, solved by
@@ -18,9 +20,14 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 
+mod calibrate;
 mod recover;
 mod transmission;
 
+pub use calibrate::{
+    calibrate_lamp, calibration_summary, check_calibrate_options, CalibrateInputs,
+    CalibrationMethod, LampCalibration, MAX_BANDS,
+};
 pub use recover::{
     parse_recovery_grid, read_band_readings, read_band_source, recover_spectrum, recovery_csv,
     recovery_plot_png, recovery_summary, BandSource, Comparison, RecoverInputs, RecoverOutcome,

@@ -2,16 +2,14 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand, ValueEnum};
-use lumifit::io::camera::read_camera;
-use lumifit::io::series::read_frame;
-use lumifit::io::sources::{file_of, resolve_lamp, resolve_passband};
 use lumifit::io::Outputs;
 use lumifit::lvf::fit::Direction;
-use lumifit::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
-use lumifit::lvf::{
-    calibrate_peaks, calibrate_whole_profile, Axis, BackgroundChoice, FitOptions, MapChoice,
+use lumifit::lvf::{Axis, BackgroundChoice, FitOptions, MapChoice};
+use lumifit::pipeline::acquisition::{
+    calibrate_lamp, calibration_summary, check_calibrate_options, CalibrateInputs,
+    CalibrationMethod,
 };
 
 use super::emit;
@@ -210,10 +208,6 @@ pub fn run(cmd: LvfCommand) -> Result<()> {
     }
 }
 
-/// Most bands between 400 and 700 nm: one per nm (an LVF passband is tens of nm wide, so more
-/// bands only repeat the same light).
-const MAX_BANDS: usize = 300;
-
 fn fixed(continuum: bool, falloff_degree: usize) -> BackgroundChoice {
     BackgroundChoice::Fixed {
         continuum,
@@ -221,146 +215,13 @@ fn fixed(continuum: bool, falloff_degree: usize) -> BackgroundChoice {
     }
 }
 
-/// A comma-separated option's values: at least one, each finite and within `range`.
-fn check_list(
-    flag: &str,
-    values: &[f64],
-    range: std::ops::RangeInclusive<f64>,
-    expected: &str,
-) -> Result<()> {
-    if values.is_empty() || values.iter().any(|v| !(v.is_finite() && range.contains(v))) {
-        anyhow::bail!("{flag}: {values:?}; expected one or more {expected}");
-    }
-    Ok(())
-}
-
 fn calibrate(a: &CalibrateArgs) -> Result<()> {
-    if !(a.fwhm_guess.is_finite() && a.fwhm_guess > 1.0 && a.fwhm_guess < 200.0) {
-        anyhow::bail!("--fwhm-guess: {} nm; expected 1–200", a.fwhm_guess);
-    }
-    check_list(
-        "--continuum-knots",
-        &a.continuum_knots,
-        0.8..=10.0,
-        "spacings of 0.8–10 FWHM, e.g. 2.5,1.5",
-    )?;
-    check_list(
-        "--shared-knots",
-        &a.shared_knots,
-        0.25..=10.0,
-        "spacings of 0.25–10 FWHM, e.g. 0.35 or 1.5,1.0,0.75",
-    )?;
-    check_list(
-        "--shared-smoothness",
-        &a.shared_smoothness,
-        0.0..=10.0,
-        "values of 0 (no penalty) to 10, e.g. 0.01,0.03",
-    )?;
-    if !(a.sigma_hint.is_finite() && a.sigma_hint > 0.0) {
-        anyhow::bail!(
-            "--sigma-hint: {} nm; expected a positive accuracy in nm, e.g. 0.3",
-            a.sigma_hint
-        );
-    }
-    lumifit::limits::check_count(
-        "--bands",
-        a.bands,
-        MAX_BANDS,
-        "one band per nm from 400 to 700 nm",
-    )?;
-    let mut out = Outputs::new();
-    out.input(&a.image);
-    out.inputs(file_of(&a.lamp));
-    out.inputs(file_of(&a.passband));
-    out.inputs(a.flat.clone());
-    out.inputs(a.camera.iter().map(|c| super::synth_lvf::camera_file(c)));
-    out.declare("--out", &a.out)?;
-    if let Some(p) = &a.plot {
-        out.declare("--plot", p)?;
-    }
-    let lamp = resolve_lamp(&a.lamp)?;
-    let exponent_search = a.passband.eq_ignore_ascii_case("gennorm");
-    let passband = if exponent_search {
-        lumifit::lvf::Passband::Gaussian
-    } else {
-        resolve_passband(&a.passband)?
-    };
-    let camera_table = match &a.camera {
-        Some(p) => Some(read_camera(Some(p))?),
-        None => None,
-    };
-    let camera = match &camera_table {
-        Some(cam) => Some(lumifit::lvf::CameraResponse::from_curves(
-            &cam.curves,
-            &cam.source,
-        )?),
-        None => None,
-    };
-    let (frame, info) = read_frame(&a.image)?;
-    let roi = match &a.roi {
-        Some(r) => super::parse_rect(r)?,
-        None => {
-            let (w, h) = frame.source_size();
-            [0, 0, w, h]
-        }
-    };
-    for w in &info.warnings {
-        eprintln!("warning: {w}");
-    }
-    let axis = match a.axis {
-        AxisArg::X => Axis::X,
-        AxisArg::Y => Axis::Y,
-    };
-    let tilt: lumifit::lvf::TiltChoice = a.tilt.parse().map_err(|_| {
-        anyhow::anyhow!(
-            "--tilt {}: expected auto, off or an angle in degrees between -45 and 45",
-            a.tilt.trim()
-        )
-    })?;
-    let prepared = lumifit::lvf::prepare_profile(&frame, roi, axis, tilt, !a.keep_occlusions)?;
-    for o in prepared.occlusions.iter().flatten() {
-        eprintln!(
-            "note: {}: {} (--keep-occlusions keeps it)",
-            a.image.display(),
-            o.describe()
-        );
-    }
-    let profile = &prepared.profile;
-    let flat = match &a.flat {
-        None => None,
-        Some(path) => {
-            let spectrum = match (&a.flat_spectrum, &camera_table) {
-                (None, _) => None,
-                (Some(_), None) => anyhow::bail!(
-                    "--flat-spectrum needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE:NAME"
-                ),
-                (Some(s), Some(cam)) => Some(
-                    FlatSpectrum::parse(s, &cam.curves, &cam.source)
-                        .map_err(|e| anyhow::anyhow!("--flat-spectrum: {e}"))?,
-                ),
-            };
-            let (flat_frame, flat_info) = read_frame(path)?;
-            for w in &flat_info.warnings {
-                eprintln!("warning: {}: {w}", path.display());
-            }
-            let f = FlatField::new(
-                &flat_frame,
-                frame.source_size(),
-                roi,
-                axis,
-                profile.tilt.as_ref(),
-                spectrum,
-            )?;
-            Some(f)
-        }
-    };
     let opts = FitOptions {
         map: match a.map {
             MapArg::Linear => MapChoice::Linear,
             MapArg::Quadratic => MapChoice::Quadratic,
             MapArg::Auto => MapChoice::Auto,
         },
-        passband,
         fwhm_guess_nm: a.fwhm_guess,
         direction: match a.direction {
             DirectionArg::Auto => Direction::Auto,
@@ -385,47 +246,47 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         shared_knots_fwhm: a.shared_knots.clone(),
         shared_smoothness: a.shared_smoothness.clone(),
         sigma_hint_nm: a.sigma_hint,
-        passband_exponent_search: exponent_search,
-        camera,
         fixed_falloff: None,
         ..FitOptions::default()
     };
-    let t = std::time::Instant::now();
-    let cal = match (a.method, &flat) {
-        (MethodArg::WholeProfile, None) => calibrate_whole_profile(profile, &lamp, &opts),
-        (MethodArg::WholeProfile, Some(f)) => calibrate_with_flat(profile, &lamp, &opts, f),
-        (MethodArg::Peaks, None) => calibrate_peaks(profile, &lamp, &opts),
-        (MethodArg::Peaks, Some(_)) => {
-            anyhow::bail!("--flat works with --method whole-profile only (peak picking has no fall-off model)")
-        }
-    }
-    .with_context(|| format!("calibrating {}", a.image.display()))?;
-    let seconds = t.elapsed().as_secs_f64();
-    for w in &cal.warnings {
-        eprintln!("warning: {}: {w}", a.image.display());
-    }
-    let mut json = serde_json::to_value(&cal)?;
-    json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
-    for (k, v) in prepared.diagnostics() {
-        json["diagnostics"][k] = v;
-    }
-    out.stage(&a.out, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    check_calibrate_options(&opts)?;
+    let inputs = CalibrateInputs {
+        image: a.image.clone(),
+        roi: a.roi.as_deref().map(super::parse_rect).transpose()?,
+        axis: match a.axis {
+            AxisArg::X => Axis::X,
+            AxisArg::Y => Axis::Y,
+        },
+        lamp: a.lamp.clone(),
+        passband: a.passband.clone(),
+        camera: a.camera.clone(),
+        flat: a.flat.clone(),
+        flat_spectrum: a.flat_spectrum.clone(),
+        tilt: a.tilt.parse().map_err(|_| {
+            anyhow::anyhow!(
+                "--tilt {}: expected auto, off or an angle in degrees between -45 and 45",
+                a.tilt.trim()
+            )
+        })?,
+        repair_dust: !a.keep_occlusions,
+    };
+    let method = match a.method {
+        MethodArg::WholeProfile => CalibrationMethod::WholeProfile,
+        MethodArg::Peaks => CalibrationMethod::Peaks,
+    };
+    let mut out = Outputs::new();
+    out.inputs(inputs.files());
+    out.declare("--out", &a.out)?;
     if let Some(p) = &a.plot {
-        out.stage(p, &lumifit::plot::lvf_chart_png(&cal)?)?;
+        out.declare("--plot", p)?;
+    }
+    let c = calibrate_lamp(&inputs, method, opts, &mut |m| eprintln!("{m}"))?;
+    out.stage(&a.out, serde_json::to_string_pretty(&c.json)?.as_bytes())?;
+    if let Some(p) = &a.plot {
+        out.stage(p, &lumifit::plot::lvf_chart_png(&c.calibration)?)?;
     }
     out.commit()?;
-    emit(&serde_json::to_string_pretty(&serde_json::json!({
-        "out": a.out.display().to_string(),
-        "method": cal.method,
-        "map": cal.map.coefficients,
-        "fwhm_nm": cal.fwhm_nm,
-        "rms_residual_nm": cal.rms_residual_nm,
-        "sigma_nm_at_400": cal.sigma_nm_at_400,
-        "sigma_nm_at_700": cal.sigma_nm_at_700,
-        "rms_residual_relative": cal.rms_residual_relative,
-        "background": cal.background.as_ref().map(|b| b.model.clone()),
-        "falloff": cal.background.as_ref().map(|b| b.falloff_source.clone()),
-        "warnings": cal.warnings,
-        "fit_seconds": seconds,
-    }))?)
+    emit(&serde_json::to_string_pretty(&calibration_summary(
+        &c, &a.out,
+    ))?)
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{ArgGroup, Args, Subcommand};
-use lumifit::io::camera::read_camera;
+use lumifit::io::camera::{camera_file, read_camera};
 use lumifit::io::lvf_model::read_lvf_model;
 use lumifit::io::sources::{file_of, resolve_lamp};
 use lumifit::io::Outputs;
@@ -190,18 +190,6 @@ fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
     Ok((w, h))
 }
 
-/// The file of `--camera FILE.csv[:NAME]`.
-pub(crate) fn camera_file(p: &std::path::Path) -> PathBuf {
-    if p.is_file() {
-        return p.to_path_buf();
-    }
-    p.to_str()
-        .and_then(|s| s.rsplit_once(':'))
-        .map(|(f, _)| PathBuf::from(f))
-        .filter(|f| f.is_file())
-        .unwrap_or_else(|| p.to_path_buf())
-}
-
 /// The file of `--filter FILE.csv[:CODE]`.
 fn filter_file(arg: &str) -> Option<std::path::PathBuf> {
     file_of(arg).or_else(|| arg.rsplit_once(':').and_then(|(f, _)| file_of(f)))
@@ -297,9 +285,10 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
     }
     let (w, h) = parse_size("--size", &a.size)?;
     let (vignetting_shape, vignetting) = VignettingShape::parse(&a.vignetting)?;
+    let flat_shape = ContinuumShape::parse("--flat-spectrum", &a.flat_spectrum)?;
     let continuum = if a.continuum > 0.0 {
         Some(Continuum {
-            shape: ContinuumShape::parse(&a.continuum_spectrum)?,
+            shape: ContinuumShape::parse("--continuum-spectrum", &a.continuum_spectrum)?,
             fraction: a.continuum,
         })
     } else if a.continuum == 0.0 {
@@ -333,9 +322,7 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
     out.stage(&a.out, &lumifit::io::image::frame_to_tiff16(&frame)?)?;
     out.stage(&a.truth, json.as_bytes())?;
     if let Some(f) = &a.flat_out {
-        let shape = ContinuumShape::parse(&a.flat_spectrum)
-            .map_err(|e| anyhow::anyhow!("--flat-spectrum: {e}"))?;
-        let flat = lumifit::lvf::flat_synth::render_lvf_flat(&spec, shape)?;
+        let flat = lumifit::lvf::flat_synth::render_lvf_flat(&spec, flat_shape)?;
         out.stage(f, &lumifit::io::image::frame_to_tiff16(&flat)?)?;
     }
     out.commit()?;

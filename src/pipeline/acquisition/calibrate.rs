@@ -1,0 +1,273 @@
+//! `lumifit lvf calibrate`: a lamp photo (and optionally a flat-field photo and the camera's
+//! sensitivities) becomes an [`LvfCalibration`] and the `lvf.json` that records it: the photo is
+//! read through `io`, the ROI read along the filter's slant with dust repaired
+//! ([`prepare_profile`]), the flat's fall-off built ([`FlatField`]) and the profile fitted
+//! ([`calibrate_whole_profile`], [`calibrate_with_flat`] or [`calibrate_peaks`]).
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::io::camera::{camera_file, read_camera};
+use crate::io::series::read_frame;
+use crate::io::sources::{file_of, resolve_lamp, resolve_passband};
+use crate::limits::check_count;
+use crate::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
+use crate::lvf::{
+    calibrate_peaks, calibrate_whole_profile, prepare_profile, Axis, CameraResponse, FitOptions,
+    LvfCalibration, Passband, TiltChoice,
+};
+
+/// Most bands between 400 and 700 nm: one per nm (an LVF passband is tens of nm wide, so more
+/// bands only repeat the same light).
+pub const MAX_BANDS: usize = 300;
+
+/// How the profile is calibrated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrationMethod {
+    /// The whole-profile fit (default).
+    WholeProfile,
+    /// Naive peak picking and a straight line (the baseline).
+    Peaks,
+}
+
+/// The files and reading choices of `lvf calibrate`.
+#[derive(Debug, Clone)]
+pub struct CalibrateInputs {
+    /// The lamp photo (RAW, PNG, TIFF, EXR).
+    pub image: PathBuf,
+    /// ROI `[x, y, w, h]` in the photo's own pixels; `None`: the whole photo.
+    pub roi: Option<[usize; 4]>,
+    /// Filter axis.
+    pub axis: Axis,
+    /// Lamp: `hg`, `cfl`, … or a CSV `wavelength_nm[,relative_power]`.
+    pub lamp: String,
+    /// Passband shape: `gaussian`, `gennorm` (exponent chosen by BIC), `gennorm:BETA` or a CSV.
+    pub passband: String,
+    /// Camera sensitivities (CSV, `DATABASE:NAME` or Academy JSON).
+    pub camera: Option<PathBuf>,
+    /// Flat-field photo through the LVF.
+    pub flat: Option<PathBuf>,
+    /// Spectrum of the flat's source (`flat`, `blackbody:K`, `cfl`); needs `camera`.
+    pub flat_spectrum: Option<String>,
+    /// How the ROI is read across the axis.
+    pub tilt: TiltChoice,
+    /// Replace local dark patches of single strips (dust) in the profile.
+    pub repair_dust: bool,
+}
+
+impl CalibrateInputs {
+    /// Every file the run reads: the photo, the lamp and passband when they are files, the flat,
+    /// and the camera's file (for `DATABASE:NAME`, the database).
+    pub fn files(&self) -> Vec<PathBuf> {
+        let mut out = vec![self.image.clone()];
+        out.extend(file_of(&self.lamp));
+        out.extend(file_of(&self.passband));
+        out.extend(self.flat.clone());
+        out.extend(self.camera.iter().map(|c| camera_file(c)));
+        out
+    }
+}
+
+/// A comma-separated option's values: at least one, each finite and within `range`.
+fn check_list(
+    flag: &str,
+    values: &[f64],
+    range: std::ops::RangeInclusive<f64>,
+    expected: &str,
+) -> Result<()> {
+    if values.is_empty() || values.iter().any(|v| !(v.is_finite() && range.contains(v))) {
+        return Err(Error::flag(
+            flag,
+            format!("{values:?}; expected one or more {expected}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks the options `lvf calibrate` takes from the user, naming each one's flag: the FWHM guess
+/// (1–200 nm), the knot spacings and smoothness values, the σ hint and the number of bands.
+///
+/// # Errors
+/// [`Error::Flag`] naming the flag and what was expected; [`Error::InvalidArgument`] for
+/// `--bands` beyond [`MAX_BANDS`].
+pub fn check_calibrate_options(opts: &FitOptions) -> Result<()> {
+    if !(opts.fwhm_guess_nm.is_finite() && opts.fwhm_guess_nm > 1.0 && opts.fwhm_guess_nm < 200.0) {
+        return Err(Error::flag(
+            "--fwhm-guess",
+            format!("{} nm; expected 1–200", opts.fwhm_guess_nm),
+        ));
+    }
+    check_list(
+        "--continuum-knots",
+        &opts.continuum_knots_fwhm,
+        0.8..=10.0,
+        "spacings of 0.8–10 FWHM, e.g. 2.5,1.5",
+    )?;
+    check_list(
+        "--shared-knots",
+        &opts.shared_knots_fwhm,
+        0.25..=10.0,
+        "spacings of 0.25–10 FWHM, e.g. 0.35 or 1.5,1.0,0.75",
+    )?;
+    check_list(
+        "--shared-smoothness",
+        &opts.shared_smoothness,
+        0.0..=10.0,
+        "values of 0 (no penalty) to 10, e.g. 0.01,0.03",
+    )?;
+    if !(opts.sigma_hint_nm.is_finite() && opts.sigma_hint_nm > 0.0) {
+        return Err(Error::flag(
+            "--sigma-hint",
+            format!(
+                "{} nm; expected a positive accuracy in nm, e.g. 0.3",
+                opts.sigma_hint_nm
+            ),
+        ));
+    }
+    check_count(
+        "--bands",
+        opts.n_bands,
+        MAX_BANDS,
+        "one band per nm from 400 to 700 nm",
+    )
+}
+
+/// A lamp photo calibrated: the calibration, the `lvf.json` document (the calibration with the
+/// reading's diagnostics and the fit's time) and the fit's wall time.
+#[derive(Debug, Clone)]
+pub struct LampCalibration {
+    /// The calibration.
+    pub calibration: LvfCalibration,
+    /// `lvf.json`: [`LvfCalibration`] serialised, with `diagnostics.fit_seconds`, `.tilt` and
+    /// `.occlusions` added.
+    pub json: serde_json::Value,
+    /// Wall time of the fit alone (s).
+    pub seconds: f64,
+}
+
+/// Calibrates the LVF from `inputs`' lamp photo. `opts` gives the fit's options but for the
+/// passband and the camera, which come from `inputs` (`opts.passband`,
+/// `opts.passband_exponent_search` and `opts.camera` are replaced). Each warning and note is
+/// handed to `notify` as it arises (`warning: …`, `note: …`), the photo's reader's first.
+///
+/// # Errors
+/// Those of [`check_calibrate_options`]; the readers' (photo, flat, lamp, passband, camera)
+/// naming the file; [`Error::Flag`] for `--flat-spectrum` without `--camera`, a bad
+/// `--flat-spectrum` or `--flat` with the peaks method; the calibration's, in the context of
+/// the photo's name.
+pub fn calibrate_lamp(
+    inputs: &CalibrateInputs,
+    method: CalibrationMethod,
+    mut opts: FitOptions,
+    notify: &mut dyn FnMut(String),
+) -> Result<LampCalibration> {
+    check_calibrate_options(&opts)?;
+    if inputs.flat.is_some() && method == CalibrationMethod::Peaks {
+        return Err(Error::flag(
+            "--flat",
+            "works with --method whole-profile only (peak picking has no fall-off model)",
+        ));
+    }
+    if inputs.flat_spectrum.is_some() && inputs.camera.is_none() {
+        return Err(Error::flag(
+            "--flat-spectrum",
+            "needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE:NAME",
+        ));
+    }
+    let lamp = resolve_lamp(&inputs.lamp)?;
+    opts.passband_exponent_search = inputs.passband.trim().eq_ignore_ascii_case("gennorm");
+    opts.passband = if opts.passband_exponent_search {
+        Passband::Gaussian
+    } else {
+        resolve_passband(&inputs.passband)?
+    };
+    let camera_table = inputs
+        .camera
+        .as_deref()
+        .map(|p| read_camera(Some(p)))
+        .transpose()?;
+    opts.camera = camera_table
+        .as_ref()
+        .map(|cam| CameraResponse::from_curves(&cam.curves, &cam.source))
+        .transpose()?;
+    let image_name = inputs.image.display().to_string();
+    let (frame, info) = read_frame(&inputs.image)?;
+    for w in &info.warnings {
+        notify(format!("warning: {w}"));
+    }
+    let roi = inputs.roi.unwrap_or_else(|| {
+        let (w, h) = frame.source_size();
+        [0, 0, w, h]
+    });
+    let prepared = prepare_profile(&frame, roi, inputs.axis, inputs.tilt, inputs.repair_dust)?;
+    for o in prepared.occlusions.iter().flatten() {
+        notify(format!(
+            "note: {image_name}: {} (--keep-occlusions keeps it)",
+            o.describe()
+        ));
+    }
+    let profile = &prepared.profile;
+    let flat = match &inputs.flat {
+        None => None,
+        Some(path) => {
+            let spectrum = match (&inputs.flat_spectrum, &camera_table) {
+                (Some(s), Some(cam)) => Some(FlatSpectrum::parse(s, &cam.curves, &cam.source)?),
+                _ => None,
+            };
+            let (flat_frame, flat_info) = read_frame(path)?;
+            for w in &flat_info.warnings {
+                notify(format!("warning: {}: {w}", path.display()));
+            }
+            Some(FlatField::new(
+                &flat_frame,
+                frame.source_size(),
+                roi,
+                inputs.axis,
+                profile.tilt.as_ref(),
+                spectrum,
+            )?)
+        }
+    };
+    let t = std::time::Instant::now();
+    let calibration = match (method, &flat) {
+        (CalibrationMethod::WholeProfile, None) => calibrate_whole_profile(profile, &lamp, &opts),
+        (CalibrationMethod::WholeProfile, Some(f)) => calibrate_with_flat(profile, &lamp, &opts, f),
+        (CalibrationMethod::Peaks, _) => calibrate_peaks(profile, &lamp, &opts),
+    }
+    .map_err(|e| e.context(format!("calibrating {image_name}")))?;
+    let seconds = t.elapsed().as_secs_f64();
+    for w in &calibration.warnings {
+        notify(format!("warning: {image_name}: {w}"));
+    }
+    let mut json = serde_json::to_value(&calibration)
+        .map_err(|e| Error::message(format!("lvf.json of {image_name}: not serialisable: {e}")))?;
+    json["diagnostics"]["fit_seconds"] = serde_json::json!(seconds);
+    for (k, v) in prepared.diagnostics() {
+        json["diagnostics"][k] = v;
+    }
+    Ok(LampCalibration {
+        calibration,
+        json,
+        seconds,
+    })
+}
+
+/// What `lvf calibrate` prints: the output's name, the method, map, FWHM, residuals, σ at 400 /
+/// 700 nm, the background and fall-off chosen, the warnings and the fit's time.
+pub fn calibration_summary(c: &LampCalibration, out: &Path) -> serde_json::Value {
+    let cal = &c.calibration;
+    serde_json::json!({
+        "out": out.display().to_string(),
+        "method": cal.method,
+        "map": cal.map.coefficients,
+        "fwhm_nm": cal.fwhm_nm,
+        "rms_residual_nm": cal.rms_residual_nm,
+        "sigma_nm_at_400": cal.sigma_nm_at_400,
+        "sigma_nm_at_700": cal.sigma_nm_at_700,
+        "rms_residual_relative": cal.rms_residual_relative,
+        "background": cal.background.as_ref().map(|b| b.model.clone()),
+        "falloff": cal.background.as_ref().map(|b| b.falloff_source.clone()),
+        "warnings": cal.warnings,
+        "fit_seconds": c.seconds,
+    })
+}
