@@ -97,7 +97,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_enum, default_value = "linear")]
     pub map: MapArg,
     /// Passband shape: `gaussian`; `gennorm` (a generalised normal exp(−ln2·|2Δλ/FWHM|^β),
-    /// the exponent β chosen by BIC over 1.25–6, about nine times the fitting time; for a filter
+    /// the exponent β chosen by BIC over 1.25–6, about seventeen times the fitting time; for a filter
     /// whose passband is not known to be Gaussian); `gennorm:BETA` (β given); or a CSV
     /// offset_nm,transmission (a measured shape). lvf.json reports it under `passband`
     #[arg(long, default_value = "gaussian")]
