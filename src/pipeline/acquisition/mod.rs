@@ -3,6 +3,8 @@
 //!
 //! - [`calibrate_lamp`] (`lumifit lvf calibrate`): a lamp photo, optionally a flat-field photo
 //!   and the camera's sensitivities become an [`crate::lvf::LvfCalibration`] and its `lvf.json`.
+//! - [`synth_lamp_photo`], [`synth_capture_photo`] (`lumifit synth lvf-hg`, `synth
+//!   lvf-capture`): synthetic photos through an LVF, encoded with their truth.
 //! - [`band_transmissions`] (`lumifit lvf transmission`): `lvf.json`, `captures.csv`, the gel
 //!   table, the light source, the target and the camera become one
 //!   [`TransmissionProblem`] on a 1 nm quadrature grid, solved by
@@ -22,6 +24,7 @@ use crate::error::{Error, Result};
 
 mod calibrate;
 mod recover;
+mod synth;
 mod transmission;
 
 pub use calibrate::{
@@ -32,6 +35,10 @@ pub use recover::{
     parse_recovery_grid, read_band_readings, read_band_source, recover_spectrum, recovery_csv,
     recovery_plot_png, recovery_summary, BandSource, Comparison, RecoverInputs, RecoverOutcome,
     Rgb, MAX_RECOVERY_GRID_STEPS,
+};
+pub use synth::{
+    parse_exposure, parse_synth_size, synth_capture_photo, synth_lamp_photo, CapturePhotoJob,
+    LampPhotoJob, LampPhotos, SynthPhoto, MAX_SYNTH_PIXELS,
 };
 pub use transmission::{
     band_transmissions, parse_transmission_grid, transmission_summary, TransmissionConfig,

@@ -4,15 +4,13 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{ArgGroup, Args, Subcommand};
-use lumifit::io::camera::{camera_file, read_camera};
-use lumifit::io::lvf_model::read_lvf_model;
-use lumifit::io::sources::{file_of, resolve_lamp};
 use lumifit::io::Outputs;
-use lumifit::lvf::capture_synth::{render_lvf_capture, CaptureLight, Exposure, LvfCaptureSpec};
-use lumifit::lvf::synth::{Continuum, ContinuumShape, VignettingShape};
-use lumifit::lvf::{render_lvf, Axis, LvfSynthSpec};
+use lumifit::lvf::Axis;
+use lumifit::pipeline::acquisition::{
+    synth_capture_photo, synth_lamp_photo, CapturePhotoJob, LampPhotoJob,
+};
 
 use super::emit;
 use super::lvf::AxisArg;
@@ -161,144 +159,38 @@ pub fn run(cmd: LvfSynthCommand) -> Result<()> {
     }
 }
 
-/// Most pixels of a synthetic image: 100 megapixels (twice a full-frame camera's sensor; the
-/// frames lumifit reads from RAW are half that resolution).
-const MAX_PIXELS: usize = 100_000_000;
-/// Bytes per pixel while rendering and encoding: the f32 RGB frame (12), its saturation mask
-/// (1), the 16-bit copy (6) and the encoded TIFF (6).
-const BYTES_PER_PIXEL: u128 = 25;
-
-/// Parses `WxH` and bounds it (pixels and memory) before anything is allocated.
-fn parse_size(flag: &str, s: &str) -> Result<(usize, usize)> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .and_then(|(w, h)| {
-            Some((
-                w.trim().parse::<usize>().ok()?,
-                h.trim().parse::<usize>().ok()?,
-            ))
-        })
-        .ok_or_else(|| anyhow::anyhow!("{flag}: '{s}' is not WxH, e.g. 1200x160"))?;
-    let pixels = w.saturating_mul(h);
-    lumifit::limits::check_memory(flag, s, pixels as u128, BYTES_PER_PIXEL)?;
-    lumifit::limits::check_count(
-        &format!("{flag} {s}"),
-        pixels,
-        MAX_PIXELS,
-        "pixels of a synthetic image",
-    )?;
-    Ok((w, h))
-}
-
-/// The file of `--filter FILE.csv[:CODE]`.
-fn filter_file(arg: &str) -> Option<std::path::PathBuf> {
-    file_of(arg).or_else(|| arg.rsplit_once(':').and_then(|(f, _)| file_of(f)))
-}
-
-fn parse_exposure(s: &str) -> Result<Exposure> {
-    if s.trim().eq_ignore_ascii_case("auto") {
-        return Ok(Exposure::Auto);
-    }
-    match s.trim().parse::<f64>() {
-        Ok(e) if e > 0.0 && e.is_finite() => Ok(Exposure::Fixed(e)),
-        _ => anyhow::bail!("--exposure: '{s}'; expected 'auto' or a positive number"),
-    }
-}
-
 fn lvf_capture(a: &LvfCaptureArgs) -> Result<()> {
+    let job = CapturePhotoJob {
+        spectrum: a.spectrum.clone(),
+        reflectance: a.reflectance.clone(),
+        illuminant: a.illuminant.clone(),
+        filter: a.filter.clone(),
+        lvf: a.lvf.clone(),
+        camera: a.camera.clone(),
+        noise: a.noise,
+        vignetting: a.vignetting.clone(),
+        exposure: a.exposure.clone(),
+        size: a.size.clone(),
+        seed: a.seed,
+    };
     let mut out = Outputs::new();
-    out.inputs(a.spectrum.iter().chain(&a.reflectance).cloned());
-    out.inputs(a.camera.iter().map(|c| camera_file(c)));
-    out.input(&a.lvf);
-    out.inputs(a.illuminant.as_deref().and_then(file_of));
-    out.inputs(a.filter.as_deref().and_then(filter_file));
+    out.inputs(job.files());
     out.declare("--out", &a.out)?;
     if let Some(t) = &a.truth {
         out.declare("--truth", t)?;
     }
-    let exposure = parse_exposure(&a.exposure)?;
-    let (vignetting_shape, vignetting) = VignettingShape::parse(&a.vignetting)?;
-    let model = read_lvf_model(&a.lvf).with_context(|| format!("--lvf {}", a.lvf.display()))?;
-    let (width, height) = match (&a.size, model.size) {
-        (Some(s), _) => parse_size("--size", s)?,
-        (None, Some((w, h))) => parse_size("--size", &format!("{w}x{h}"))?,
-        (None, None) => anyhow::bail!(
-            "--size: required with an lvf.json from 'lvf calibrate' ({} holds no image size); give the size of the calibrated image, e.g. --size 1200x160",
-            a.lvf.display()
-        ),
-    };
-    let light = match (&a.spectrum, &a.reflectance, &a.illuminant) {
-        (Some(s), None, _) => CaptureLight::Emission(lumifit::io::spectrum_csv::read_spectrum(s)?),
-        (None, Some(r), Some(i)) => CaptureLight::Reflectance {
-            reflectance: lumifit::io::spectrum_csv::read_spectrum(r)?,
-            illuminant: {
-                let ill = super::resolve_illuminant(i)?;
-                ill.spectrum().clone().with_name(ill.name())
-            },
-        },
-        (None, Some(_), None) => anyhow::bail!("--reflectance needs --illuminant NAME|FILE.csv"),
-        _ => anyhow::bail!("give exactly one of --spectrum FILE.csv or --reflectance FILE.csv"),
-    };
-    let (filter, filter_name) = match &a.filter {
-        None => (None, None),
-        Some(f) => {
-            let gel = lumifit::io::filters::read_filter(f)?;
-            let label = gel.label();
-            (Some(gel.transmission), Some(label))
-        }
-    };
-    let spec = LvfCaptureSpec {
-        width,
-        height,
-        axis: model.axis,
-        map: model.map,
-        fwhm_nm: model.fwhm_nm,
-        light,
-        filter,
-        filter_name,
-        camera: read_camera(a.camera.as_deref())?.curves,
-        noise: a.noise,
-        vignetting,
-        vignetting_shape,
-        seed: a.seed,
-        exposure,
-    };
-    let (frame, truth) = render_lvf_capture(&spec)?;
-    let json = serde_json::to_string_pretty(&truth)?;
-    out.stage(&a.out, &lumifit::io::image::frame_to_tiff16(&frame)?)?;
+    let photo = synth_capture_photo(&job)?;
+    out.stage(&a.out, &photo.tiff)?;
     if let Some(t) = &a.truth {
-        out.stage(t, json.as_bytes())?;
+        out.stage(t, photo.truth_json.as_bytes())?;
     }
     out.commit()?;
-    emit(&json)
+    emit(&photo.truth_json)
 }
 
 fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
-    let mut out = Outputs::new();
-    out.inputs(a.camera.iter().map(|c| camera_file(c)));
-    out.inputs(lumifit::io::sources::file_of(&a.passband));
-    out.inputs(file_of(&a.lamp));
-    out.declare("--out", &a.out)?;
-    out.declare("--truth", &a.truth)?;
-    if let Some(f) = &a.flat_out {
-        out.declare("--flat-out", f)?;
-    }
-    let (w, h) = parse_size("--size", &a.size)?;
-    let (vignetting_shape, vignetting) = VignettingShape::parse(&a.vignetting)?;
-    let flat_shape = ContinuumShape::parse("--flat-spectrum", &a.flat_spectrum)?;
-    let continuum = if a.continuum > 0.0 {
-        Some(Continuum {
-            shape: ContinuumShape::parse("--continuum-spectrum", &a.continuum_spectrum)?,
-            fraction: a.continuum,
-        })
-    } else if a.continuum == 0.0 {
-        None
-    } else {
-        anyhow::bail!("--continuum: {}; expected a fraction ≥ 0", a.continuum)
-    };
-    let spec = LvfSynthSpec {
-        width: w,
-        height: h,
+    let job = LampPhotoJob {
+        size: a.size.clone(),
         axis: match a.axis {
             AxisArg::X => Axis::X,
             AxisArg::Y => Axis::Y,
@@ -308,23 +200,30 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         bow_nm: a.bow,
         tilt_deg: a.tilt,
         fwhm_nm: a.fwhm,
-        passband: lumifit::io::sources::resolve_passband(&a.passband)?,
-        lamp: resolve_lamp(&a.lamp)?,
-        camera: read_camera(a.camera.as_deref())?.curves,
+        passband: a.passband.clone(),
+        lamp: a.lamp.clone(),
+        camera: a.camera.clone(),
         noise: a.noise,
-        vignetting,
-        vignetting_shape,
-        continuum,
+        vignetting: a.vignetting.clone(),
+        continuum: a.continuum,
+        continuum_spectrum: a.continuum_spectrum.clone(),
+        flat: a.flat_out.is_some(),
+        flat_spectrum: a.flat_spectrum.clone(),
         seed: a.seed,
     };
-    let (frame, truth) = render_lvf(&spec)?;
-    let json = serde_json::to_string_pretty(&truth)?;
-    out.stage(&a.out, &lumifit::io::image::frame_to_tiff16(&frame)?)?;
-    out.stage(&a.truth, json.as_bytes())?;
+    let mut out = Outputs::new();
+    out.inputs(job.files());
+    out.declare("--out", &a.out)?;
+    out.declare("--truth", &a.truth)?;
     if let Some(f) = &a.flat_out {
-        let flat = lumifit::lvf::flat_synth::render_lvf_flat(&spec, flat_shape)?;
-        out.stage(f, &lumifit::io::image::frame_to_tiff16(&flat)?)?;
+        out.declare("--flat-out", f)?;
+    }
+    let photos = synth_lamp_photo(&job)?;
+    out.stage(&a.out, &photos.lamp.tiff)?;
+    out.stage(&a.truth, photos.lamp.truth_json.as_bytes())?;
+    if let (Some(f), Some(tiff)) = (&a.flat_out, &photos.flat_tiff) {
+        out.stage(f, tiff)?;
     }
     out.commit()?;
-    emit(&json)
+    emit(&photos.lamp.truth_json)
 }
