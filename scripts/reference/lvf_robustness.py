@@ -6,10 +6,12 @@ rotated in the image (slanted iso-wavelength lines), an Hg-Ar lamp's unlisted Ar
 shadows and hot pixels, and a filter along y.
 
     cargo build --release
-    python3 scripts/reference/lvf_robustness.py [--lumifit target/release/lumifit] [--cases base,fwhm15]
+    python3 scripts/reference/lvf_robustness.py [--lumifit target/release/lumifit] [--cases 0,30]
+        [--seeds 1-12] [--camera "Nokia N900"] [--write fixtures/lvf_reference]
 
 Prints a markdown table: the signed error of the fitted map at the true 400 / 700 nm positions,
-the reported σ there, the background model chosen and the first warning.
+the reported σ there, the background model chosen and the first warning; with --seeds a row per
+noise draw; with --write the images and their truth JSON instead (test fixtures).
 
 Images (unless a case says otherwise): 1200 x 160 px, lambda(px) = 372.3 + 0.3117 px (px = column,
 pixel centres at integers), passband FWHM 25 nm, Gaussian, the Canon 5D Mark II of the Jiang et al.
@@ -202,33 +204,76 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lumifit", default=str(ROOT / "target" / "release" / "lumifit"))
     ap.add_argument("--cases", help="comma-separated case indices (default all)")
+    ap.add_argument("--seeds", help="noise seeds FIRST-LAST: each case rendered once per seed "
+                    "(default: the case's own, 1), a row per draw")
+    ap.add_argument("--camera", help="render every case through this camera of the database instead")
+    ap.add_argument("--write", metavar="DIR",
+                    help="write each image as DIR/robustness_case{I}_seed{S}.png with its truth JSON "
+                         "instead of calibrating (fixtures for the tests)")
     a = ap.parse_args()
     sel = None if not a.cases else {int(i) for i in a.cases.split(",")}
-    print("| # | image | options | error at 400 / 700 nm | σ 400 / 700 | background | first warning |")
-    print("|---|---|---|---|---|---|---|")
+    seeds = [None]
+    if a.seeds:
+        lo, _, hi = a.seeds.partition("-")
+        seeds = list(range(int(lo), int(hi or lo) + 1))
+    if a.write:
+        Path(a.write).mkdir(parents=True, exist_ok=True)
+    else:
+        print("| # | image | options | error at 400 / 700 nm | σ 400 / 700 | background | first warning |")
+        print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for i, (name, p, extra) in enumerate(CASES):
+        for i, (name, p0, extra) in enumerate(CASES):
             if sel is not None and i not in sel:
                 continue
-            img = Path(tmp) / f"case{i}.png"
-            truth = render(p, img)
-            out = Path(tmp) / f"case{i}.json"
-            axis = "y" if p.get("transpose") else "x"
-            r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", axis, "--out", str(out), *extra],
-                               capture_output=True, text=True)
-            opts = " ".join(extra) or "defaults"
-            if r.returncode != 0:
-                print(f"| {i} | {name} | {opts} | exit {r.returncode}: {r.stderr.strip().splitlines()[-1][:120]} | | | |", flush=True)
-                continue
-            cal = json.loads(out.read_text())
-            c = cal["map"]["coefficients"]
-            lam = lambda px: sum(ci * px**k for k, ci in enumerate(c))
-            e4, e7 = lam(truth[400]) - 400, lam(truth[700]) - 700
-            w = cal.get("warnings", [])
-            first = (w[0][:90] + "…") if w else ""
-            beta = cal.get("passband", {}).get("beta")
-            model = cal["background"]["model"] + (f", β {beta:.2f}" if beta else "") + (", quadratic map" if cal["map"]["kind"] == "quadratic" else "")
-            print(f"| {i} | {name} | {opts} | {e4:+.3f} / {e7:+.3f} | {cal['sigma_nm_at_400']:.3f} / {cal['sigma_nm_at_700']:.3f} | {model} | {first} |", flush=True)
+            for seed in seeds:
+                p = dict(p0)
+                if seed is not None:
+                    p["seed"] = seed
+                    name_s = f"{CASES[i][0]}, seed {seed}"
+                else:
+                    name_s = CASES[i][0]
+                if a.camera:
+                    p["camera"] = a.camera
+                    name_s += f", {a.camera}"
+                if a.write:
+                    stem = Path(a.write) / f"robustness_case{i}_seed{p.get('seed', 1)}"
+                    truth = render(p, stem.with_suffix(".png"))
+                    doc = {
+                        "schema": "lumifit.lvf-reference-truth/1",
+                        "generator": f"scripts/reference/lvf_robustness.py --cases {i} --seeds {p.get('seed', 1)} (numpy {np.__version__})",
+                        "case": name_s,
+                        "parameters": p,
+                        "px_at_400": truth[400],
+                        "px_at_700": truth[700],
+                        "options": extra,
+                    }
+                    stem.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n")
+                    print(stem.with_suffix(".png"), stem.with_suffix(".png").stat().st_size, "bytes")
+                    continue
+                run_case(a, tmp, i, name_s, p, extra)
+
+
+def run_case(a, tmp, i, name, p, extra):
+    """Calibrates one rendered case and prints its table row."""
+    img = Path(tmp) / f"case{i}.png"
+    truth = render(p, img)
+    out = Path(tmp) / f"case{i}.json"
+    axis = "y" if p.get("transpose") else "x"
+    r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", axis, "--out", str(out), *extra],
+                       capture_output=True, text=True)
+    opts = " ".join(extra) or "defaults"
+    if r.returncode != 0:
+        print(f"| {i} | {name} | {opts} | exit {r.returncode}: {r.stderr.strip().splitlines()[-1][:120]} | | | |", flush=True)
+        return
+    cal = json.loads(out.read_text())
+    c = cal["map"]["coefficients"]
+    lam = lambda px: sum(ci * px**k for k, ci in enumerate(c))
+    e4, e7 = lam(truth[400]) - 400, lam(truth[700]) - 700
+    w = cal.get("warnings", [])
+    first = (w[0][:90] + "…") if w else ""
+    beta = cal.get("passband", {}).get("beta")
+    model = cal["background"]["model"] + (f", β {beta:.2f}" if beta else "") + (", quadratic map" if cal["map"]["kind"] == "quadratic" else "")
+    print(f"| {i} | {name} | {opts} | {e4:+.3f} / {e7:+.3f} | {cal['sigma_nm_at_400']:.3f} / {cal['sigma_nm_at_700']:.3f} | {model} | {first} |", flush=True)
 
 
 if __name__ == "__main__":

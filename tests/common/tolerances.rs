@@ -242,6 +242,9 @@ pub mod lvf_continuum {
     /// continuum: ≤ 0.147 nm on every 1 % Hg row, docs/performance.md; the weak-violet and
     /// off-centre tests assert [`HG_TOL_NM`]).
     pub const HG_GRID_BOUND_NM: f64 = 0.45;
+    /// Issue 12's bound at 5 % noise, asserted on an independent Hg draw the focused criterion
+    /// used to push past it (`tests/lvf_reference_images.rs`).
+    pub const HG_5PCT_BOUND_NM: f64 = 0.4;
     /// The same for a CFL under its phosphor continuum: the issue asks 0.3 nm; measured up to
     /// 0.93 nm (NOT met; the per-channel continuum trades with the many weak CFL lines).
     pub const CFL_GRID_BOUND_NM: f64 = 1.2;
