@@ -2642,7 +2642,8 @@ fn lambda_and_variance(pr: &Problem, fit: &Fitted, us: &[f64]) -> Option<Vec<(f6
 /// 238–374 behind and four of them pushed 700 nm past issue 12's 0.4 nm (0.67–0.87 nm, BIC's own
 /// choice ≤ 0.26). Not a statistical test: the variance of the difference between the two
 /// non-nested fits is only bounded, and the passband continuum's λ scatters more than its
-/// statistical σ where the data do not ask for it.
+/// statistical σ where the data do not ask for it. Nor a full fix: on lumifit's own 5 % Hg
+/// images harmful replacements also occur at ΔBIC 15–193, within the CFL's range.
 pub(crate) const FOCUSED_ACROSS_MAX_DELTA_BIC: f64 = 200.0;
 
 /// Why the continuum BIC chose was replaced (see [`focused_refinement`]).
