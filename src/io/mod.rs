@@ -99,12 +99,16 @@ pub fn parse_json<T: serde::de::DeserializeOwned>(bytes: &[u8], source: &str) ->
 /// `value` as pretty-printed JSON followed by a newline (the form every summary and report file
 /// is written in); `what` names it if serialising fails.
 pub fn pretty_json_line<T: serde::Serialize>(value: &T, what: &str) -> Result<String> {
-    serde_json::to_string_pretty(value)
-        .map(|t| t + "\n")
-        .map_err(|e| crate::error::Error::Numerical {
-            what: what.to_string(),
-            reason: e.to_string(),
-        })
+    pretty_json(value, what).map(|t| t + "\n")
+}
+
+/// `value` as pretty-printed JSON (no trailing newline); a serialisation failure is
+/// [`crate::error::Error::Numerical`] naming `what`.
+pub fn pretty_json<T: serde::Serialize + ?Sized>(value: &T, what: &str) -> Result<String> {
+    serde_json::to_string_pretty(value).map_err(|e| crate::error::Error::Numerical {
+        what: what.to_string(),
+        reason: e.to_string(),
+    })
 }
 
 /// Reads and parses a JSON file (or `-` for standard input) into `T` (see [`parse_json`]).

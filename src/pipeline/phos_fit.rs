@@ -32,12 +32,9 @@ use crate::preset::phosphor::{
 };
 use crate::preset::to_json_string;
 
-/// Pretty JSON; a serialisation failure is [`Error::Numerical`].
+/// Pretty JSON; a serialisation failure is [`Error::Numerical`] ([`crate::io::pretty_json`]).
 fn pretty<T: serde::Serialize + ?Sized>(v: &T) -> Result<String> {
-    serde_json::to_string_pretty(v).map_err(|e| Error::Numerical {
-        what: "JSON serialisation".into(),
-        reason: e.to_string(),
-    })
+    crate::io::pretty_json(v, "JSON serialisation")
 }
 
 /// Declares `--plot` when given.

@@ -212,10 +212,7 @@ pub fn run_phos_decay(
     ))
 }
 
-/// Pretty JSON; a serialisation failure is [`Error::Numerical`].
+/// Pretty JSON; a serialisation failure is [`Error::Numerical`] ([`crate::io::pretty_json`]).
 fn pretty<T: serde::Serialize>(v: &T) -> Result<String> {
-    serde_json::to_string_pretty(v).map_err(|e| Error::Numerical {
-        what: "JSON serialisation".into(),
-        reason: e.to_string(),
-    })
+    crate::io::pretty_json(v, "JSON serialisation")
 }

@@ -11,6 +11,7 @@ use crate::io::camera::{camera_file, read_camera};
 use crate::io::filters::read_filter;
 use crate::io::image::frame_to_tiff16;
 use crate::io::lvf_model::read_lvf_model;
+use crate::io::pretty_json;
 use crate::io::sources::{file_of, resolve_illuminant, resolve_lamp, resolve_passband};
 use crate::io::spectrum_csv::read_spectrum;
 use crate::limits::{check_count, check_memory};
@@ -186,7 +187,7 @@ pub fn synth_lamp_photo(job: &LampPhotoJob) -> Result<LampPhotos> {
     let (frame, truth) = render_lvf(&spec)?;
     let lamp = SynthPhoto {
         tiff: frame_to_tiff16(&frame)?,
-        truth_json: to_pretty(&truth)?,
+        truth_json: pretty_json(&truth, "truth JSON")?,
     };
     let flat_tiff = match job.flat {
         true => Some(frame_to_tiff16(&render_lvf_flat(&spec, flat_shape)?)?),
@@ -312,11 +313,6 @@ pub fn synth_capture_photo(job: &CapturePhotoJob) -> Result<SynthPhoto> {
     let (frame, truth) = render_lvf_capture(&spec)?;
     Ok(SynthPhoto {
         tiff: frame_to_tiff16(&frame)?,
-        truth_json: to_pretty(&truth)?,
+        truth_json: pretty_json(&truth, "truth JSON")?,
     })
-}
-
-fn to_pretty<T: serde::Serialize>(value: &T) -> Result<String> {
-    serde_json::to_string_pretty(value)
-        .map_err(|e| Error::message(format!("truth JSON: not serialisable: {e}")))
 }

@@ -8,8 +8,7 @@ use lumifit::io::Outputs;
 use lumifit::lvf::fit::Direction;
 use lumifit::lvf::{Axis, BackgroundChoice, FitOptions, MapChoice};
 use lumifit::pipeline::acquisition::{
-    calibrate_lamp, calibration_summary, check_calibrate_options, CalibrateInputs,
-    CalibrationMethod,
+    calibrate_lamp, calibration_summary, CalibrateInputs, CalibrationMethod,
 };
 
 use super::emit;
@@ -249,7 +248,6 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         fixed_falloff: None,
         ..FitOptions::default()
     };
-    check_calibrate_options(&opts)?;
     let inputs = CalibrateInputs {
         image: a.image.clone(),
         roi: a.roi.as_deref().map(super::parse_rect).transpose()?,
