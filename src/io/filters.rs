@@ -407,6 +407,25 @@ pub fn pick_gel(gels: Vec<Gel>, code: &str, source: &str) -> Result<Gel> {
         })
 }
 
+/// `FILE.csv` or `FILE.csv:CODE` split into the table's path and the gel's code (none when the
+/// whole argument names an existing file).
+fn split_filter_arg(arg: &str) -> (&Path, Option<&str>) {
+    let whole = Path::new(arg);
+    match arg.rsplit_once(':') {
+        Some((file, code)) if !whole.exists() && !file.is_empty() && !code.is_empty() => {
+            (Path::new(file), Some(code))
+        }
+        _ => (whole, None),
+    }
+}
+
+/// The table file `--filter FILE.csv[:CODE]` reads, when it is a file (for the output-path
+/// check, which lists every file a run reads).
+pub fn filter_file(arg: &str) -> Option<std::path::PathBuf> {
+    let (path, _) = split_filter_arg(arg);
+    path.is_file().then(|| path.to_path_buf())
+}
+
 /// One filter from a command-line argument: `FILE.csv` holding a single gel (two columns
 /// `wavelength_nm,transmission`, or a table with one gel), or `FILE.csv:CODE` picking gel `CODE`
 /// from a table. An argument naming an existing file is always taken as a file.
@@ -415,13 +434,7 @@ pub fn pick_gel(gels: Vec<Gel>, code: &str, source: &str) -> Result<Gel> {
 /// The [`read_gel_table`] errors; [`Error::InvalidArgument`] for an unknown code (listing a few
 /// available ones) or for a multi-gel table given without a code.
 pub fn read_filter(arg: &str) -> Result<Gel> {
-    let whole = Path::new(arg);
-    let (path, code) = match arg.rsplit_once(':') {
-        Some((file, code)) if !whole.exists() && !file.is_empty() && !code.is_empty() => {
-            (Path::new(file), Some(code))
-        }
-        _ => (whole, None),
-    };
+    let (path, code) = split_filter_arg(arg);
     let gels = read_gel_table(path)?;
     let source = path.display().to_string();
     match code {

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use crate::error::{Error, Result};
 use crate::io::camera::{camera_file, read_camera};
-use crate::io::filters::read_filter;
+use crate::io::filters::{filter_file, read_filter};
 use crate::io::image::frame_to_tiff16;
 use crate::io::lvf_model::read_lvf_model;
 use crate::io::pretty_json;
@@ -51,11 +51,6 @@ pub fn parse_synth_size(flag: &str, s: &str) -> Result<(usize, usize)> {
         "pixels of a synthetic image",
     )?;
     Ok((w, h))
-}
-
-/// The file of `--filter FILE.csv[:CODE]`.
-fn filter_file(arg: &str) -> Option<PathBuf> {
-    file_of(arg).or_else(|| arg.rsplit_once(':').and_then(|(f, _)| file_of(f)))
 }
 
 /// `--exposure`: `auto` or a positive factor.
