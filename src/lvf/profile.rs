@@ -644,6 +644,10 @@ pub fn extract_profile_straightened(
     Ok((profile, Some(est)))
 }
 
+/// Largest slant (degrees, exclusive) of a filter's iso-wavelength lines that `lvf calibrate
+/// --tilt` and `synth lvf-hg --tilt` take: beyond 45° the filter's axis is the other one.
+pub const MAX_TILT_DEG: f64 = 45.0;
+
 /// How the ROI is read across the axis (`lvf calibrate --tilt`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TiltChoice {
@@ -670,12 +674,14 @@ impl std::str::FromStr for TiltChoice {
         }
         t.parse::<f64>()
             .ok()
-            .filter(|d| d.is_finite() && d.abs() < 45.0)
+            .filter(|d| d.is_finite() && d.abs() < MAX_TILT_DEG)
             .map(TiltChoice::Degrees)
             .ok_or_else(|| {
-                Error::invalid(
-                    "tilt",
-                    format!("{t}: expected auto, off or an angle in degrees between -45 and 45"),
+                Error::flag(
+                    "--tilt",
+                    format!(
+                        "{t}: expected auto, off or an angle in degrees between -{MAX_TILT_DEG} and {MAX_TILT_DEG}"
+                    ),
                 )
             })
     }

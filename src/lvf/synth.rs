@@ -30,7 +30,7 @@ use crate::capture::RgbFrame;
 use crate::error::{Error, Result};
 use crate::lvf::fit::Passband;
 use crate::lvf::lamp::Lamp;
-use crate::lvf::profile::Axis;
+use crate::lvf::profile::{Axis, MAX_TILT_DEG};
 use crate::spectrum::MultiSpectrum;
 use crate::table::parse_numeric_csv;
 
@@ -402,11 +402,11 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         // the root continuous with the linear map's (−c/b) as a → 0
         2.0 * -c / (b + b.signum() * d)
     };
-    if !(spec.tilt_deg.is_finite() && spec.tilt_deg.abs() < 45.0) {
+    if !(spec.tilt_deg.is_finite() && spec.tilt_deg.abs() < MAX_TILT_DEG) {
         return Err(Error::invalid(
             "--tilt",
             format!(
-                "{} degrees: expected an angle between -45 and 45",
+                "{} degrees: expected an angle between -{MAX_TILT_DEG} and {MAX_TILT_DEG}",
                 spec.tilt_deg
             ),
         ));

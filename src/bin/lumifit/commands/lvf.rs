@@ -260,12 +260,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         camera: a.camera.clone(),
         flat: a.flat.clone(),
         flat_spectrum: a.flat_spectrum.clone(),
-        tilt: a.tilt.parse().map_err(|_| {
-            anyhow::anyhow!(
-                "--tilt {}: expected auto, off or an angle in degrees between -45 and 45",
-                a.tilt.trim()
-            )
-        })?,
+        tilt: a.tilt.parse()?,
         repair_dust: !a.keep_occlusions,
     };
     let method = match a.method {
