@@ -315,7 +315,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
         use_std: true,
     };
     let mut warnings = Vec::new();
-    let set = band_transmissions(&tin, &tcfg, &|| {}, &mut warnings)?;
+    let set = band_transmissions(&tin.open()?, &tcfg, &|| {}, &mut warnings)?;
     let bands_json = set.to_json()?;
     let bands_path = ctx.scratch.write("lvf_bands.json", bands_json.as_bytes())?;
     r.data

@@ -15,7 +15,7 @@
 //!   reflectance factor is recovered by [`crate::recovery::recover`].
 //!
 //! Every file is read here (through `io`), never by the binary, and every input file a run will
-//! read is listed beforehand ([`TransmissionInputs::files`], [`RecoverInputs::files`]) so the
+//! read is listed beforehand ([`TransmissionJob::files`], [`RecoverInputs::files`]) so the
 //! command can refuse an output that would replace one of them.
 
 use std::path::Path;
@@ -42,7 +42,7 @@ pub use synth::{
 };
 pub use transmission::{
     band_transmissions, parse_transmission_grid, transmission_summary, TransmissionConfig,
-    TransmissionInputs, COVERAGE_LEVEL,
+    TransmissionInputs, TransmissionJob, COVERAGE_LEVEL,
 };
 
 pub(super) fn range(w: &[f64]) -> (f64, f64) {

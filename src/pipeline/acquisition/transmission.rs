@@ -42,26 +42,48 @@ pub struct TransmissionInputs {
 }
 
 impl TransmissionInputs {
-    /// Every file the run reads: the named files, the source when it is a file, and each photo
-    /// listed in the captures CSV.
+    /// Reads the captures CSV (when given) once and returns the job [`band_transmissions`]
+    /// runs: its photo list and every file it reads, for the output-path check and a progress
+    /// bar, without a second parse.
     ///
     /// # Errors
     /// The errors of [`read_captures`] (a missing photo or a folder named as one).
-    pub fn files(&self) -> Result<Vec<PathBuf>> {
-        let mut out = vec![self.lvf.clone()];
-        out.extend(
-            self.filters
-                .iter()
-                .chain(&self.target)
-                .chain(&self.camera)
-                .cloned(),
-        );
-        out.extend(self.source.as_deref().and_then(file_of));
-        if let Some(c) = &self.captures {
+    pub fn open(self) -> Result<TransmissionJob> {
+        let captures = self.captures.as_deref().map(read_captures).transpose()?;
+        Ok(TransmissionJob {
+            inputs: self,
+            captures,
+        })
+    }
+}
+
+/// [`TransmissionInputs`] with the captures CSV read: what [`band_transmissions`] solves.
+#[derive(Debug, Clone)]
+pub struct TransmissionJob {
+    inputs: TransmissionInputs,
+    captures: Option<Vec<CaptureLine>>,
+}
+
+impl TransmissionJob {
+    /// The photos the captures CSV lists (0 without `--captures`).
+    pub fn photo_count(&self) -> usize {
+        self.captures.as_ref().map_or(0, Vec::len)
+    }
+
+    /// Every file the run reads: the named files, the source when it is a file, the captures
+    /// CSV and each photo it lists.
+    pub fn files(&self) -> Vec<PathBuf> {
+        let i = &self.inputs;
+        let mut out = vec![i.lvf.clone()];
+        out.extend(i.filters.iter().chain(&i.target).chain(&i.camera).cloned());
+        out.extend(i.source.as_deref().and_then(file_of));
+        if let Some(c) = &i.captures {
             out.push(c.clone());
-            out.extend(read_captures(c)?.into_iter().map(|l| l.image));
         }
-        Ok(out)
+        if let Some(lines) = &self.captures {
+            out.extend(lines.iter().map(|l| l.image.clone()));
+        }
+        out
     }
 }
 
@@ -166,11 +188,12 @@ fn coverage(source: &Spectrum, target: &Spectrum, camera: &MultiSpectrum) -> Res
 /// reach beyond the source, target, camera or gels, photos of another size than the
 /// calibration's, and the solver's errors.
 pub fn band_transmissions(
-    inputs: &TransmissionInputs,
+    job: &TransmissionJob,
     cfg: &TransmissionConfig,
     progress: &dyn Fn(),
     warnings: &mut Vec<String>,
 ) -> Result<BandSet> {
+    let inputs = &job.inputs;
     let (lvf_text, lvf_src) = read_json_text(&inputs.lvf, "an lvf.json from 'lvf calibrate'")?;
     let geometry = LvfGeometry::from_json(lvf_text.as_bytes(), &lvf_src)?;
     let lvf_value = json_value(&lvf_text, &lvf_src)?;
@@ -181,7 +204,7 @@ pub fn band_transmissions(
         };
         calibration_bands(&geometry, lvf_value, &grid)?
     } else {
-        solve_from_captures(inputs, cfg, &geometry, lvf_value, progress, warnings)?
+        solve_from_captures(job, cfg, &geometry, lvf_value, progress, warnings)?
     };
     if let Some(obj) = set.diagnostics.as_object_mut() {
         obj.insert("lvf".into(), serde_json::json!(lvf_src));
@@ -190,7 +213,7 @@ pub fn band_transmissions(
 }
 
 fn solve_from_captures(
-    inputs: &TransmissionInputs,
+    job: &TransmissionJob,
     cfg: &TransmissionConfig,
     geometry: &LvfGeometry,
     lvf_value: serde_json::Value,
@@ -207,12 +230,13 @@ fn solve_from_captures(
             ))
         }
     };
+    let inputs = &job.inputs;
     need(inputs.captures.is_some(), "--captures")?;
     need(inputs.source.is_some(), "--source")?;
     need(inputs.target.is_some(), "--target")?;
     let captures_path = inputs.captures.as_deref().unwrap_or(Path::new(""));
     let csv = captures_path.display().to_string();
-    let lines = read_captures(captures_path)?;
+    let lines: &[CaptureLine] = job.captures.as_deref().unwrap_or(&[]);
     let gels: Vec<Gel> = if lines.iter().any(|l| l.filter.is_some()) {
         let Some(f) = &inputs.filters else {
             return Err(Error::invalid(
@@ -225,7 +249,7 @@ fn solve_from_captures(
         Vec::new()
     };
     let mut capture_gels: Vec<Option<&Gel>> = Vec::with_capacity(lines.len());
-    for l in &lines {
+    for l in lines {
         match &l.filter {
             None => capture_gels.push(None),
             Some(code) => {

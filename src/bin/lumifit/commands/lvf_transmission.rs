@@ -105,8 +105,9 @@ pub fn run(a: &TransmissionArgs) -> Result<()> {
         target: a.target.clone(),
         camera: a.camera.clone(),
     };
+    let job = inputs.open()?;
     let mut out = Outputs::new();
-    out.inputs(inputs.files()?);
+    out.inputs(job.files());
     out.declare("--out", &a.out)?;
     if let Some(p) = &a.plot {
         out.declare("--plot", p)?;
@@ -126,13 +127,9 @@ pub fn run(a: &TransmissionArgs) -> Result<()> {
         nonnegative: !a.no_nonneg,
         use_std: !a.unweighted,
     };
-    let n_photos = match &a.captures {
-        Some(c) => lumifit::io::captures::read_captures(c)?.len(),
-        None => 0,
-    };
-    let bar = super::progress_bar(n_photos, "reading", "captures");
+    let bar = super::progress_bar(job.photo_count(), "reading", "captures");
     let mut warnings = Vec::new();
-    let set = band_transmissions(&inputs, &config, &|| bar.inc(1), &mut warnings);
+    let set = band_transmissions(&job, &config, &|| bar.inc(1), &mut warnings);
     bar.finish_and_clear();
     for w in &warnings {
         eprintln!("warning: {w}");
