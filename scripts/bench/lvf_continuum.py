@@ -3,7 +3,7 @@
     cargo build --release
     python3 scripts/bench/lvf_continuum.py [--seeds 3] [--cases all|quick|11,12,…] [--background auto] [--shared]
         [--lumifit PATH]   (a copy of the binary, so that a rebuild during the run does not change it)
-        [--per-seed]       (each seed's signed error, statistical σ and model)
+        [--per-seed]       (each seed's signed error, statistical and reported σ, model)
 
 Geometry of docs/performance.md / issue 12: 1200x160 px, 372.3 nm + 0.3117 nm/px, Gaussian
 passband FWHM 25 nm. Images from `lumifit synth lvf-hg` (lines integrated over each pixel's span),
@@ -64,7 +64,7 @@ def main():
     ap.add_argument("--knots", default=None, help="--continuum-knots of lvf calibrate, e.g. 2.5,1.5")
     ap.add_argument("--lumifit", default=LUMIFIT, help="the lumifit binary (default target/release/lumifit)")
     ap.add_argument("--per-seed", action="store_true",
-                    help="also print each seed's signed error, statistical σ at 400 / 700 nm and model")
+                    help="also print each seed's signed error, statistical and reported σ at 400 / 700 nm and model")
     a = ap.parse_args()
     LUMIFIT = a.lumifit
     cases = CASES if a.cases == "all" else [CASES[int(i)] for i in (QUICK if a.cases == "quick" else a.cases.split(","))]
@@ -100,7 +100,8 @@ def main():
                     if a.per_seed:
                         print(f"  {cam} seed {seed}: {lam(t['px_at_400']) - 400:+.3f} / {lam(t['px_at_700']) - 700:+.3f} nm, "
                               f"statistical σ {cal['sigma_statistical_nm_at_400']:.3f} / "
-                              f"{cal['sigma_statistical_nm_at_700']:.3f}, {cal['background']['model']}", flush=True)
+                              f"{cal['sigma_statistical_nm_at_700']:.3f}, reported σ {cal['sigma_nm_at_400']:.3f} / "
+                              f"{cal['sigma_nm_at_700']:.3f}, {cal['background']['model']}", flush=True)
                     sig.append((cal["sigma_nm_at_400"], cal["sigma_nm_at_700"]))
                     models.append(cal["background"]["model"])
                     if cal.get("unexplained_lines"):
