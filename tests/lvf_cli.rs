@@ -421,3 +421,65 @@ fn a_passband_shape_rendered_by_synth_is_fitted_by_calibrate_and_carried_by_lvf_
         assert!(!std::path::Path::new(&p("t2.json")).exists());
     }
 }
+
+/// A mercury table rounded to whole nanometres moves the map (436 and 546 nm alone fix it; the
+/// doublets' free splits cannot contradict them) and nothing in the profile shows it: the table
+/// is checked against the NIST wavelengths and a warning names each line, on stderr and in
+/// lvf.json. The same image with `--lamp hg` draws no such warning.
+#[test]
+fn a_mercury_table_off_the_nist_wavelengths_is_warned_line_by_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let o = lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p("hg.tiff"),
+        "--truth",
+        &p("truth.json"),
+        "--seed",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(
+        p("hg_rounded.csv"),
+        "wavelength_nm,relative_power\n405,0.40\n408,0.04\n436,1.00\n546,0.90\n577,0.20\n579,0.22\n",
+    )
+    .unwrap();
+    let calibrate = |lamp: &str, out: &str| {
+        let o = lumifit(&[
+            "lvf",
+            "calibrate",
+            &p("hg.tiff"),
+            "--axis",
+            "x",
+            "--lamp",
+            lamp,
+            "--out",
+            &p(out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let cal: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(p(out)).unwrap()).unwrap();
+        let warned: Vec<String> = cal["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|w| w.as_str())
+            .filter(|w| w.contains("NIST air wavelengths"))
+            .map(String::from)
+            .collect();
+        (stderr(&o), warned)
+    };
+    let (err, warned) = calibrate(&p("hg_rounded.csv"), "rounded.json");
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    for named in [
+        "436 nm (+0.167 nm from 435.833)",
+        "546 nm (-0.074 nm from 546.074)",
+    ] {
+        assert!(warned[0].contains(named), "{named}: {}", warned[0]);
+        assert!(err.contains(named), "{named}: {err}");
+    }
+    let (_, warned) = calibrate("hg", "exact.json");
+    assert!(warned.is_empty(), "{warned:?}");
+}

@@ -2368,6 +2368,28 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
     report_identifications(&mut cal, &per_start, fwhm);
     cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;
+    // A mercury table off the NIST wavelengths: the profile cannot catch it (the doublets'
+    // free splits leave 435.8 and 546.1 nm alone to fix the map), so the table is checked
+    // against NIST instead, for the lines inside the calibrated range.
+    let ends = [
+        profile.px.first().map(|&p| cal.map.eval(p)),
+        profile.px.last().map(|&p| cal.map.eval(p)),
+    ];
+    if let [Some(a), Some(b)] = ends {
+        let (lo, hi) = (a.min(b), a.max(b));
+        let off: Vec<String> = lamp
+            .off_table_mercury_lines()
+            .into_iter()
+            .filter(|(nm, _)| (lo..=hi).contains(nm))
+            .map(|(nm, nist)| format!("{nm} nm ({:+.3} nm from {nist})", nm - nist))
+            .collect();
+        if !off.is_empty() {
+            cal.warnings.push(format!(
+                "the lamp table is not at the mercury lines' NIST air wavelengths: {}; the map follows the table and the profile cannot catch it (the 404.7/407.8 and 577.0/579.1 nm doublets, their splits free, leave 435.8 and 546.1 nm alone to fix the map), so σ does not include it — list the wavelengths to 0.01 nm (--lamp hg does)",
+                off.join(", ")
+            ));
+        }
+    }
     // Without the camera's curves a continuum is drawn per channel, and its freedom (or its
     // bias, as the model-choice systematic) can dominate σ: say so, and what would narrow it.
     let sigma_ends = [cal.sigma_nm_at_400, cal.sigma_nm_at_700];

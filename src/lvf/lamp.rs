@@ -73,6 +73,12 @@ pub const MERCURY_LINES_NM: &[f64] = &[
 /// 0.1 nm, some to 1 nm).
 pub const MERCURY_MATCH_NM: f64 = 0.6;
 
+/// A mercury lamp's listed line further than this from the NIST air wavelength of the mercury
+/// line it stands for (nm) is named in a warning ([`Lamp::off_table_mercury_lines`]): the 0.0005–
+/// 0.001 nm of a table to three decimals passes, a table to 0.1 nm (435.8, 546.1: 0.03 nm off) or
+/// to 1 nm does not.
+pub const MERCURY_LIST_TOL_NM: f64 = 0.02;
+
 const CFL_PHOSPHOR: &[(f64, f64)] = &[
     (487.7, 0.30),
     (542.4, 1.00),
@@ -143,6 +149,28 @@ impl Lamp {
             })
     }
 
+    /// For a mercury lamp ([`Lamp::is_mercury`]): each listed line further than
+    /// [`MERCURY_LIST_TOL_NM`] from the nearest NIST mercury line ([`MERCURY_LINES_NM`]), as
+    /// (listed, NIST) pairs in nm. The profile cannot check such an entry: the 404.7/407.8 and
+    /// 577.0/579.1 nm doublets, their splits free, can put their blobs anywhere within their
+    /// span, so 435.8 and 546.1 nm alone fix the map and the map follows their entries
+    /// (docs/capture.md). Empty for any other lamp.
+    pub fn off_table_mercury_lines(&self) -> Vec<(f64, f64)> {
+        if !self.is_mercury() {
+            return Vec::new();
+        }
+        self.lines
+            .iter()
+            .filter_map(|l| {
+                let m = MERCURY_LINES_NM
+                    .iter()
+                    .copied()
+                    .min_by(|a, b| (a - l.nm).abs().total_cmp(&(b - l.nm).abs()))?;
+                ((l.nm - m).abs() > MERCURY_LIST_TOL_NM).then_some((l.nm, m))
+            })
+            .collect()
+    }
+
     /// A lamp from a table whose first column is the wavelength in nm and whose optional second
     /// column is the relative power (default 1).
     ///
@@ -198,5 +226,38 @@ mod tests {
         assert!(!lamp("hg_plus.csv", &[404.7, 435.8, 546.1, 611.6]).is_mercury());
         // neon is not mercury
         assert!(!lamp("ne.csv", &[585.249, 640.225, 703.241]).is_mercury());
+    }
+
+    #[test]
+    fn a_mercury_table_off_the_nist_wavelengths_is_named_line_by_line() {
+        assert!(Lamp::mercury().off_table_mercury_lines().is_empty());
+        assert!(Lamp::mercury_weak_violet()
+            .off_table_mercury_lines()
+            .is_empty());
+        // two decimals pass (≤ 0.01 nm)
+        let two = lamp("hg2.csv", &[404.66, 407.78, 435.83, 546.07, 576.96, 579.07]);
+        assert!(two.off_table_mercury_lines().is_empty());
+        // whole nanometres: every line named with the NIST line it stands for
+        let whole = lamp("hg1.csv", &[405.0, 408.0, 436.0, 546.0, 577.0, 579.0]);
+        assert_eq!(
+            whole.off_table_mercury_lines(),
+            vec![
+                (405.0, 404.656),
+                (408.0, 407.783),
+                (436.0, 435.833),
+                (546.0, 546.074),
+                (577.0, 576.960),
+                (579.0, 579.066)
+            ]
+        );
+        // 0.1 nm: 546.1 is 0.026 nm off
+        let tenth = lamp("hg01.csv", &[435.8, 546.1]);
+        assert_eq!(tenth.off_table_mercury_lines().len(), 2);
+        // not mercury: nothing to compare (a CFL's own mercury lines are exact anyway; neon's
+        // 576.44 nm lies 0.52 nm from mercury's 576.96)
+        assert!(Lamp::cfl().off_table_mercury_lines().is_empty());
+        assert!(lamp("ne.csv", &[576.442, 585.249, 640.225])
+            .off_table_mercury_lines()
+            .is_empty());
     }
 }

@@ -76,7 +76,9 @@ pub struct CalibrateArgs {
     /// Filter axis: x (along columns) or y (along rows).
     #[arg(long, value_enum)]
     pub axis: AxisArg,
-    /// Lamp: hg, cfl, or a CSV wavelength_nm[,relative_power].
+    /// Lamp: hg, hg-weak, cfl, or a CSV wavelength_nm[,relative_power]. A mercury table is
+    /// checked against the NIST air wavelengths (a warning names each line more than 0.02 nm
+    /// off: the profile cannot catch it).
     #[arg(long, default_value = "hg")]
     pub lamp: String,
     /// Number of bands from 400 to 700 nm.
