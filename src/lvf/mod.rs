@@ -45,7 +45,10 @@ pub(crate) mod unlisted;
 
 pub use background::{BackgroundChoice, BackgroundTerms};
 pub use calibration::{Band, LineReport, LvfCalibration, MapKind, MapModel};
-pub use fit::{calibrate_whole_profile, FitOptions, MapChoice, Passband, CONTINUUM_SIGMA_HINT_NM};
+pub use fit::{
+    calibrate_whole_profile, FitOptions, MapChoice, Passband, CONTINUUM_SIGMA_HINT_NM,
+    SPLIT_PRIOR_TAU,
+};
 pub use geometry::{BandReadings, LvfGeometry};
 pub use lamp::{Lamp, LampLine};
 pub use peaks::calibrate_peaks;

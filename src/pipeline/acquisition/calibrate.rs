@@ -124,6 +124,15 @@ pub fn check_calibrate_options(opts: &FitOptions) -> Result<()> {
             ),
         ));
     }
+    if !(opts.split_prior_tau.is_finite() && (0.0..=5.0).contains(&opts.split_prior_tau)) {
+        return Err(Error::flag(
+            "--split-prior",
+            format!(
+                "{}; expected the prior's width in natural log units, 0 (splits free) to 5, e.g. 0.3",
+                opts.split_prior_tau
+            ),
+        ));
+    }
     check_count(
         "--bands",
         opts.n_bands,

@@ -81,6 +81,12 @@ pub struct CalibrateArgs {
     /// off: the profile cannot catch it).
     #[arg(long, default_value = "hg")]
     pub lamp: String,
+    /// Width (1σ, natural log) of the prior on how a mercury lamp's unresolved pairs
+    /// (404.7/407.8 and 577.0/579.1 nm) split their blob, around the lamp table's powers; 0
+    /// frees the splits. Free, a pair can put its blob anywhere within its span and only 435.8
+    /// and 546.1 nm fix the map. Not used with the shared continuum spectrum of --camera.
+    #[arg(long, default_value_t = lumifit::lvf::SPLIT_PRIOR_TAU)]
+    pub split_prior: f64,
     /// Number of bands from 400 to 700 nm.
     #[arg(long, default_value_t = 31)]
     pub bands: usize,
@@ -247,6 +253,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         shared_knots_fwhm: a.shared_knots.clone(),
         shared_smoothness: a.shared_smoothness.clone(),
         sigma_hint_nm: a.sigma_hint,
+        split_prior_tau: a.split_prior,
         fixed_falloff: None,
         ..FitOptions::default()
     };
