@@ -90,32 +90,25 @@ fn the_split_prior_is_for_mercury_tables_only_and_zero_frees_the_pairs() {
     let Some(db) = common::jiang::database("the split-prior checks") else {
         return;
     };
-    let s = spec(
-        Lamp::cfl(),
-        camera(&db, "Canon 5DMarkII"),
-        0.01,
-        (VignettingShape::Quadratic, 0.3),
-        Some((ContinuumShape::Cfl, 0.10)),
-        1,
-    );
-    let (frame, _) = render_lvf(&s).unwrap();
-    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-    let cal = calibrate_whole_profile(&profile, &Lamp::cfl(), &FitOptions::default()).unwrap();
-    assert!(cal.diagnostics.get("split_prior").is_none());
-    let s = spec(
-        Lamp::mercury(),
-        camera(&db, "Canon 5DMarkII"),
-        0.01,
-        (VignettingShape::Quadratic, 0.3),
-        Some((ContinuumShape::Flat, 0.10)),
-        1,
-    );
-    let (frame, _) = render_lvf(&s).unwrap();
-    let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
-    let opts = FitOptions {
-        split_prior_tau: 0.0,
-        ..FitOptions::default()
+    let calibrated = |lamp: Lamp, continuum: ContinuumShape, tau: f64| {
+        let s = spec(
+            lamp.clone(),
+            camera(&db, "Canon 5DMarkII"),
+            0.01,
+            (VignettingShape::Quadratic, 0.3),
+            Some((continuum, 0.10)),
+            1,
+        );
+        let (frame, _) = render_lvf(&s).unwrap();
+        let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
+        let opts = FitOptions {
+            split_prior_tau: tau,
+            ..FitOptions::default()
+        };
+        calibrate_whole_profile(&profile, &lamp, &opts).unwrap()
     };
-    let cal = calibrate_whole_profile(&profile, &Lamp::mercury(), &opts).unwrap();
+    let cal = calibrated(Lamp::cfl(), ContinuumShape::Cfl, SPLIT_PRIOR_TAU);
+    assert!(cal.diagnostics.get("split_prior").is_none());
+    let cal = calibrated(Lamp::mercury(), ContinuumShape::Flat, 0.0);
     assert!(cal.diagnostics.get("split_prior").is_none());
 }
