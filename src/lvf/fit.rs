@@ -2908,7 +2908,7 @@ struct Detect<'d, 'a> {
 /// Robust per-channel noise of a profile from its second differences:
 /// σ = median|y[i−1] − 2y[i] + y[i+1]| / (0.6745·√6) (white noise; a smooth signal's second
 /// differences are tiny at the pixel scale, so the lines do not inflate it).
-/// Lines of a mercury lamp ([`Lamp::is_mercury`]) closer than this (nm) are a pair whose split
+/// Lines of a mercury table ([`Lamp::is_mercury_table`]) closer than this (nm) are a pair whose split
 /// gets a prior ([`SplitPrior`]): 404.7/407.8 and 577.0/579.1 nm.
 pub(crate) const SPLIT_PAIR_NM: f64 = 5.0;
 
@@ -2925,10 +2925,10 @@ pub(crate) const SPLIT_PAIR_NM: f64 = 5.0;
 /// the table to 10 %, which lamps do not promise.
 pub const SPLIT_PRIOR_TAU: f64 = 0.3;
 
-/// The split priors of a lamp: each adjacent pair of a mercury lamp's lines closer than
+/// The split priors of a lamp: each adjacent pair of a mercury table's lines closer than
 /// [`SPLIT_PAIR_NM`], both with a positive power, with width `tau` (none for `tau` ≤ 0).
 pub(crate) fn split_priors(lamp: &Lamp, tau: f64) -> Vec<SplitPrior> {
-    if tau.is_nan() || tau <= 0.0 || !lamp.is_mercury() {
+    if tau.is_nan() || tau <= 0.0 || !lamp.is_mercury_table() {
         return Vec::new();
     }
     let mut l: Vec<&crate::lvf::lamp::LampLine> = lamp.lines.iter().collect();

@@ -73,6 +73,10 @@ pub const MERCURY_LINES_NM: &[f64] = &[
 /// 0.1 nm, some to 1 nm).
 pub const MERCURY_MATCH_NM: f64 = 0.6;
 
+/// A mercury table's line may be this far (nm) from the mercury line it stands for and still be
+/// taken for it by [`Lamp::is_mercury_table`] (a wrong entry, not another element's line).
+pub const MERCURY_NEAR_NM: f64 = 2.0;
+
 /// A mercury lamp's listed line further than this from the NIST air wavelength of the mercury
 /// line it stands for (nm) is named in a warning ([`Lamp::off_table_mercury_lines`]): the 0.0005–
 /// 0.001 nm of a table to three decimals passes, a table to 0.1 nm (435.8, 546.1: 0.03 nm off) or
@@ -149,14 +153,30 @@ impl Lamp {
             })
     }
 
-    /// For a mercury lamp ([`Lamp::is_mercury`]): each listed line further than
+    /// Whether the table is a mercury table, perhaps with wrong entries: at least three in four
+    /// of its lines within [`MERCURY_MATCH_NM`] of a mercury line and every one within
+    /// [`MERCURY_NEAR_NM`]. A table with one entry 0.8 nm off is not [`Lamp::is_mercury`] but
+    /// is this; a CFL's phosphor lines (487.7, 542.4, 611.6 nm …) and neon's are not.
+    pub fn is_mercury_table(&self) -> bool {
+        let near =
+            |l: &LampLine, tol: f64| MERCURY_LINES_NM.iter().any(|m| (l.nm - m).abs() <= tol);
+        let n = self.lines.len();
+        let matched = self
+            .lines
+            .iter()
+            .filter(|l| near(l, MERCURY_MATCH_NM))
+            .count();
+        n > 0 && 4 * matched >= 3 * n && self.lines.iter().all(|l| near(l, MERCURY_NEAR_NM))
+    }
+
+    /// For a mercury table ([`Lamp::is_mercury_table`]): each listed line further than
     /// [`MERCURY_LIST_TOL_NM`] from the nearest NIST mercury line ([`MERCURY_LINES_NM`]), as
     /// (listed, NIST) pairs in nm. The profile cannot check such an entry: the 404.7/407.8 and
     /// 577.0/579.1 nm doublets, their splits free, can put their blobs anywhere within their
     /// span, so 435.8 and 546.1 nm alone fix the map and the map follows their entries
     /// (docs/capture.md). Empty for any other lamp.
     pub fn off_table_mercury_lines(&self) -> Vec<(f64, f64)> {
-        if !self.is_mercury() {
+        if !self.is_mercury_table() {
             return Vec::new();
         }
         self.lines
@@ -253,6 +273,14 @@ mod tests {
         // 0.1 nm: 546.1 is 0.026 nm off
         let tenth = lamp("hg01.csv", &[435.8, 546.1]);
         assert_eq!(tenth.off_table_mercury_lines().len(), 2);
+        // one entry 0.8 nm off: still a mercury table, and named
+        let wrong = lamp(
+            "hgw.csv",
+            &[404.656, 407.783, 436.633, 546.074, 576.960, 579.066],
+        );
+        assert!(!wrong.is_mercury());
+        assert!(wrong.is_mercury_table());
+        assert_eq!(wrong.off_table_mercury_lines(), vec![(436.633, 435.833)]);
         // not mercury: nothing to compare (a CFL's own mercury lines are exact anyway; neon's
         // 576.44 nm lies 0.52 nm from mercury's 576.96)
         assert!(Lamp::cfl().off_table_mercury_lines().is_empty());
