@@ -74,8 +74,11 @@ pub const MERCURY_LINES_NM: &[f64] = &[
 pub const MERCURY_MATCH_NM: f64 = 0.6;
 
 /// A mercury table's line may be this far (nm) from the mercury line it stands for and still be
-/// taken for it by [`Lamp::is_mercury_table`] (a wrong entry, not another element's line).
-pub const MERCURY_NEAR_NM: f64 = 2.0;
+/// taken for it by [`Lamp::is_mercury_table`] (a wrong entry, not another element's line). Wider
+/// would take argon's 706.72 nm (1.47 nm from mercury's 708.19) in a mercury-argon table for a
+/// wrong mercury entry; a blob listed 2 nm off is caught by the displaced-line check anyway (ΔBIC
+/// ≈ 1,300 on issue 12's images).
+pub const MERCURY_NEAR_NM: f64 = 1.0;
 
 /// A mercury lamp's listed line further than this from the NIST air wavelength of the mercury
 /// line it stands for (nm) is named in a warning ([`Lamp::off_table_mercury_lines`]): the 0.0005–
@@ -281,6 +284,12 @@ mod tests {
         assert!(!wrong.is_mercury());
         assert!(wrong.is_mercury_table());
         assert_eq!(wrong.off_table_mercury_lines(), vec![(436.633, 435.833)]);
+        // argon's 706.72 nm beside a mercury table is not taken for a wrong 708.19 entry
+        let hg_ar = lamp(
+            "hgar.csv",
+            &[404.656, 435.833, 546.074, 576.960, 579.066, 706.722],
+        );
+        assert!(!hg_ar.is_mercury_table());
         // not mercury: nothing to compare (a CFL's own mercury lines are exact anyway; neon's
         // 576.44 nm lies 0.52 nm from mercury's 576.96)
         assert!(Lamp::cfl().off_table_mercury_lines().is_empty());
