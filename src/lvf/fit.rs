@@ -2439,8 +2439,8 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
     report_identifications(&mut cal, &per_start, fwhm);
     cal.unexplained_lines.sort_by(|a, b| a.nm.total_cmp(&b.nm));
     cal.set_bands(opts.n_bands)?;
-    // A mercury table off the NIST wavelengths: the profile cannot catch it (the doublets'
-    // free splits leave 435.8 and 546.1 nm alone to fix the map), so the table is checked
+    // A mercury table off the NIST wavelengths: the profile cannot catch it (the doublets can
+    // move their blobs within their span, even under the split prior), so the table is checked
     // against NIST instead, for the lines inside the calibrated range.
     let ends = [
         profile.px.first().map(|&p| cal.map.eval(p)),
@@ -2456,7 +2456,7 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
             .collect();
         if !off.is_empty() {
             cal.warnings.push(format!(
-                "the lamp table is not at the mercury lines' NIST air wavelengths: {}; the map follows the table and the profile cannot catch it (the 404.7/407.8 and 577.0/579.1 nm doublets, their splits free, leave 435.8 and 546.1 nm alone to fix the map), so σ does not include it — list the wavelengths to 0.01 nm (--lamp hg does)",
+                "the lamp table is not at the mercury lines' NIST air wavelengths: {}; the map follows the table and the profile cannot catch it (the 404.7/407.8 and 577.0/579.1 nm doublets can move their blobs within their span, so 435.8 and 546.1 nm alone fix the map against such an entry), so σ does not include it — list the wavelengths to 0.01 nm (--lamp hg does)",
                 off.join(", ")
             ));
         }
@@ -2905,9 +2905,6 @@ struct Detect<'d, 'a> {
     eval: &'d Eval,
 }
 
-/// Robust per-channel noise of a profile from its second differences:
-/// σ = median|y[i−1] − 2y[i] + y[i+1]| / (0.6745·√6) (white noise; a smooth signal's second
-/// differences are tiny at the pixel scale, so the lines do not inflate it).
 /// Lines of a mercury table ([`Lamp::is_mercury_table`]) closer than this (nm) are a pair whose split
 /// gets a prior ([`SplitPrior`]): 404.7/407.8 and 577.0/579.1 nm.
 pub(crate) const SPLIT_PAIR_NM: f64 = 5.0;
@@ -2948,6 +2945,9 @@ pub(crate) fn split_priors(lamp: &Lamp, tau: f64) -> Vec<SplitPrior> {
         .collect()
 }
 
+/// Robust per-channel noise of a profile from its second differences:
+/// σ = median|y[i−1] − 2y[i] + y[i+1]| / (0.6745·√6) (white noise; a smooth signal's second
+/// differences are tiny at the pixel scale, so the lines do not inflate it).
 pub(crate) fn profile_noise(values: &[f64]) -> f64 {
     let mut d: Vec<f64> = values
         .windows(3)
@@ -3232,8 +3232,6 @@ fn assess(
     Ok(())
 }
 
-/// s²(JᵀJ)⁻¹ with s² = SSE/dof ([`fit::stats`](crate::fit::stats), through the QR of J), or
-/// None when J is rank deficient.
 /// `jac` without its columns past the first `keep` that are exactly zero (parameters with no
 /// influence on the residual).
 fn without_inert_columns(jac: DMatrix<f64>, keep: usize) -> DMatrix<f64> {
@@ -3247,6 +3245,8 @@ fn without_inert_columns(jac: DMatrix<f64>, keep: usize) -> DMatrix<f64> {
     }
 }
 
+/// s²(JᵀJ)⁻¹ with s² = SSE/dof ([`fit::stats`](crate::fit::stats), through the QR of J), or
+/// None when J is rank deficient.
 fn covariance(jac: &DMatrix<f64>, sse: f64, dof: f64) -> Option<DMatrix<f64>> {
     let (m, p) = jac.shape();
     let c = stats::covariance_scaled(jac.as_slice(), m, p, sse / dof)?;

@@ -175,9 +175,9 @@ impl Lamp {
     /// For a mercury table ([`Lamp::is_mercury_table`]): each listed line further than
     /// [`MERCURY_LIST_TOL_NM`] from the nearest NIST mercury line ([`MERCURY_LINES_NM`]), as
     /// (listed, NIST) pairs in nm. The profile cannot check such an entry: the 404.7/407.8 and
-    /// 577.0/579.1 nm doublets, their splits free, can put their blobs anywhere within their
-    /// span, so 435.8 and 546.1 nm alone fix the map and the map follows their entries
-    /// (docs/capture.md). Empty for any other lamp.
+    /// 577.0/579.1 nm doublets can move their blobs within their span (the split prior holds
+    /// them only loosely), so 435.8 and 546.1 nm alone fix the map and the map follows their
+    /// entries (docs/capture.md). Empty for any other lamp.
     pub fn off_table_mercury_lines(&self) -> Vec<(f64, f64)> {
         if !self.is_mercury_table() {
             return Vec::new();
