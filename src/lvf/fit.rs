@@ -1688,6 +1688,17 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         per_start,
         mut others,
     } = fit_candidates(&candidates, &full, &starts, 0, ln_n);
+    // The camera's curves checked against the lines' colours before anything leans on the
+    // shared continuum drawn through them.
+    let mut camera_check = opts.camera.as_ref().and_then(|cam| {
+        check_camera_colours(
+            cam,
+            &mut chosen_pr,
+            &mut chosen_fit,
+            &mut best_bic,
+            &mut others,
+        )
+    });
     // A strong line the lamp list lacks would bias every candidate: search the chosen fit's
     // residual, and when lines are found, choose the background again with them in the model.
     // Only when the background is chosen (`Auto`): a requested model is fitted as asked.
@@ -1725,6 +1736,16 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         let starts_x: Vec<&[f64]> = vec![&x_start, &plain_best.theta];
         let c = fit_candidates(&candidates, &full_x, &starts_x, extra.len(), ln_n);
         (chosen_pr, chosen_fit, best_bic, others) = (c.pr, c.fit, c.bic, c.others);
+        if let Some(cam) = &opts.camera {
+            camera_check = check_camera_colours(
+                cam,
+                &mut chosen_pr,
+                &mut chosen_fit,
+                &mut best_bic,
+                &mut others,
+            )
+            .or(camera_check);
+        }
         // the chosen background refined once more with the unlisted wavelengths free, so the
         // map's covariance carries their uncertainty
         let listed_only = chosen_pr.with_lines(lines.clone());
@@ -2427,6 +2448,61 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         }
         cal.diagnostics["displaced_lines"] = serde_json::json!(report);
     }
+    if let Some(cc) = &camera_check {
+        let limit = crate::lvf::line_colour::MISFIT_MAX;
+        cal.diagnostics["camera_check"] = serde_json::json!({
+            "camera": opts.camera.as_ref().map(|c| c.source.clone()),
+            "misfit": cc.check.misfit,
+            "misfit_max": limit,
+            "consistent": !cc.check.inconsistent(),
+            "lines": cc.check.lines,
+            "shared_candidates_dropped": cc.dropped.iter().map(|(m, b)| serde_json::json!({"model": m, "bic": b})).collect::<Vec<_>>(),
+            "note": "each judged line's per-channel amplitudes (summed with the lines within half a FWHM it dominates) against the camera's colour at those lines, one free scale per line, from the best fit whose continuum is shared through the curves; misfit = sqrt(sum |observed - predicted|^2 / sum |observed|^2)",
+        });
+        if cc.check.inconsistent() {
+            // the three lines furthest off the curves' colours
+            let off = |j: &crate::lvf::line_colour::JudgedLine| {
+                let d: f64 = (0..3)
+                    .map(|c| (j.observed[c] - j.predicted[c]).powi(2))
+                    .sum();
+                let o: f64 = j.observed.iter().map(|v| v * v).sum();
+                d / o.max(1e-300)
+            };
+            let mut far: Vec<&crate::lvf::line_colour::JudgedLine> =
+                cc.check.lines.iter().collect();
+            far.sort_by(|a, b| off(b).total_cmp(&off(a)));
+            far.truncate(3);
+            let worst = far
+                .into_iter()
+                .map(|j| {
+                    let ratio = |a: [f64; 3]| {
+                        if a[1] > 0.0 {
+                            format!("{:.2} : 1 : {:.2}", a[0] / a[1], a[2] / a[1])
+                        } else {
+                            "-".into()
+                        }
+                    };
+                    format!(
+                        "{} nm r:g:b {} where the curves give {}",
+                        j.nm,
+                        ratio(j.observed),
+                        ratio(j.predicted)
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
+            cal.warnings.push(format!(
+                "the lamp lines' colours disagree with the --camera curves ({}) by {:.1} % (at most {:.0} % is taken as the image's own camera): {worst}; these curves are not the image's channels (another camera, a white-balanced, 8-bit or otherwise processed image), so the continuum shared through them was not used{}",
+                opts.camera.as_ref().map_or("", |c| c.source.as_str()),
+                100.0 * cc.check.misfit,
+                100.0 * limit,
+                match &cc.chosen_replaced {
+                    Some(m) => format!(" (BIC had chosen {m}; the map is that of {})", pr.terms.name()),
+                    None => String::new(),
+                }
+            ));
+        }
+    }
     if !full.splits.is_empty() {
         cal.diagnostics["split_prior"] = serde_json::json!({
             "tau": opts.split_prior_tau,
@@ -2724,6 +2800,70 @@ fn lambda_and_variance(pr: &Problem, fit: &Fitted, us: &[f64]) -> Option<Vec<(f6
             })
             .collect(),
     )
+}
+
+/// What [`check_camera_colours`] found: the check, and the shared-continuum candidates it
+/// dropped (name, BIC) when it judged the curves not the image's.
+struct CameraColours {
+    check: crate::lvf::line_colour::LineColourCheck,
+    dropped: Vec<(String, f64)>,
+    chosen_replaced: Option<String>,
+}
+
+/// The `--camera` curves judged by the lines' colours ([`crate::lvf::line_colour`]) in the best
+/// (by BIC) candidate whose continuum is shared through them. When they are not the image's,
+/// every shared-continuum candidate is dropped (neither chosen nor counted in the model-choice
+/// systematic) and, if one was chosen, the best remaining candidate by BIC takes its place.
+/// None when there is no shared-continuum candidate or no line to judge.
+fn check_camera_colours<'a>(
+    cam: &CameraResponse,
+    chosen_pr: &mut Problem<'a>,
+    chosen_fit: &mut Fitted,
+    best_bic: &mut f64,
+    others: &mut Vec<(Problem<'a>, Fitted, f64)>,
+) -> Option<CameraColours> {
+    let shared = |p: &Problem| p.terms.shared_intervals > 0;
+    let best_shared = std::iter::once((&*chosen_pr, &*chosen_fit, *best_bic))
+        .chain(others.iter().map(|(p, f, b)| (p, f, *b)))
+        .filter(|(p, _, _)| shared(p))
+        .min_by(|a, b| a.2.total_cmp(&b.2))?;
+    let (spr, sfit, _) = best_shared;
+    let nm = spr.lines();
+    let amp: Vec<[f64; 3]> = (0..nm.len())
+        .map(|i| std::array::from_fn(|c| sfit.eval.alpha[c][N_BG + i]))
+        .collect();
+    let check = crate::lvf::line_colour::check(cam, nm, &amp, spr.fwhm(&sfit.theta))?;
+    if !check.inconsistent() {
+        return Some(CameraColours {
+            check,
+            dropped: Vec::new(),
+            chosen_replaced: None,
+        });
+    }
+    let mut dropped: Vec<(String, f64)> = others
+        .iter()
+        .filter(|(p, _, _)| shared(p))
+        .map(|(p, _, b)| (p.terms.name(), *b))
+        .collect();
+    others.retain(|(p, _, _)| !shared(p));
+    let mut chosen_replaced = None;
+    if shared(chosen_pr) {
+        let next = (0..others.len()).min_by(|&a, &b| others[a].2.total_cmp(&others[b].2));
+        if let Some(k) = next {
+            let (p, f, b) = others.swap_remove(k);
+            dropped.push((chosen_pr.terms.name(), *best_bic));
+            chosen_replaced = Some(chosen_pr.terms.name());
+            *chosen_pr = p;
+            *chosen_fit = f;
+            *best_bic = b;
+        }
+    }
+    dropped.sort_by(|a, b| a.1.total_cmp(&b.1));
+    Some(CameraColours {
+        check,
+        dropped,
+        chosen_replaced,
+    })
 }
 
 /// Largest BIC lead of a spline in u over the passband continuum at which the focused criterion

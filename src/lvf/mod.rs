@@ -32,6 +32,7 @@ pub mod flat;
 pub mod flat_synth;
 pub mod geometry;
 pub mod lamp;
+pub mod line_colour;
 pub mod misfit;
 pub mod noise;
 pub mod passband_continuum;

@@ -18,7 +18,9 @@
 //! those of the image's channels (linear raw, no white balance): a channel gain or another
 //! camera's curves make the shared spectrum fit worse, and at 1 % noise BIC then prefers the
 //! per-channel continuum; at 5 % it cannot tell, and a wrong camera of the Jiang database moved
-//! 700 nm by up to 1.35 nm with σ 0.3 (`scripts/bench/lvf_camera_choice.py`).
+//! 700 nm by up to 1.35 nm with σ 0.3 (`scripts/bench/lvf_camera_choice.py`). The lamp lines'
+//! colours now judge the curves first ([`crate::lvf::line_colour`]): curves that fail are not
+//! used.
 //!
 //! Sums are on a 1 nm grid (the continuum is smooth; the passband is ≥ several nm wide).
 

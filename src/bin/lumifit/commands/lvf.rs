@@ -171,9 +171,11 @@ pub struct CalibrateArgs {
     /// The camera's sensitivities (CSV wavelength_nm,r,g,b, DB:NAME of the Jiang
     /// database (long CSV or its camspec_database.txt), or Academy spectral-data JSON as in rawtoaces-data): adds a continuum spectrum shared by the three channels to the candidates
     /// (the image must be linear raw, channels as in the table), and is the camera
-    /// --flat-spectrum is seen through. Give the image's own camera: σ assumes its curves, and
-    /// at 5 % noise another camera's curves can move the map by ≈ 1 nm without raising σ (at
-    /// 1 % BIC rejects them; a camera with the same sensor calibrates as well).
+    /// --flat-spectrum is seen through. Give the image's own camera: the lamp lines' colours
+    /// judge the curves (diagnostics.camera_check), and curves more than 3 % off them are not
+    /// used for the continuum (a warning names the lines); σ assumes curves that pass, and a
+    /// close camera (the Nikon D80's curves on a D700 image) can still pass and move the map
+    /// by ≈ 0.5 nm at 5 % noise without raising σ.
     #[arg(long)]
     pub camera: Option<PathBuf>,
 }
