@@ -7,7 +7,6 @@
 //! `../shared/data/camera/` (skip message when absent, failure when `LUMIFIT_REQUIRE_DATA=1`).
 //! Geometry of issue 12 (`tests/common/lvf_geometry.rs`).
 
-use lumifit::io::camera::parse_camera_file;
 use lumifit::lvf::line_colour::MISFIT_MAX;
 use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
 use lumifit::lvf::{CameraResponse, FitOptions, Lamp, LvfCalibration};
@@ -88,25 +87,9 @@ fn another_camera_s_curves_are_caught_by_the_line_colours_and_not_used() {
 /// rendered with Weta's curves (rawtoaces-data) and given Jiang's, or the 5D Mark III's (Weta).
 #[test]
 fn the_same_camera_measured_elsewhere_passes_and_a_sibling_model_does_not() {
-    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/camera");
-    let academy = |name: &str| -> Option<MultiSpectrum> {
-        let p = dir.join("rawtoaces-data").join(name);
-        match std::fs::read(&p) {
-            Ok(b) => Some(parse_camera_file(&b, name).unwrap()),
-            Err(_) => {
-                assert!(
-                    std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
-                    "LUMIFIT_REQUIRE_DATA=1 but {} is missing",
-                    p.display()
-                );
-                eprintln!("SKIPPED: {} is absent", p.display());
-                None
-            }
-        }
-    };
     let (Some(weta), Some(mk3), Some(db)) = (
-        academy("Canon_EOS_5D_Mark_II_380_780_5.json"),
-        academy("Canon_EOS_5D_Mark_III_380_780_5.json"),
+        common::jiang::academy("rawtoaces-data/Canon_EOS_5D_Mark_II_380_780_5.json"),
+        common::jiang::academy("rawtoaces-data/Canon_EOS_5D_Mark_III_380_780_5.json"),
         common::jiang::database("the line-colour checks"),
     ) else {
         return;
@@ -128,4 +111,74 @@ fn the_same_camera_measured_elsewhere_passes_and_a_sibling_model_does_not() {
     let (misfit, consistent, _) = check(&cal);
     eprintln!("Weta 5D Mark II image, 5D Mark III curves: misfit {misfit:.4}");
     assert!(!consistent && colour_warning(&cal).is_some(), "{misfit}");
+}
+
+/// The CLI as a user meets it: `synth lvf-hg` through the Canon 5D Mark II, then `lvf calibrate
+/// --camera DB:"Nikon D700"` — exit 0, the warning on stderr names the curves and the lines,
+/// lvf.json says what was dropped and holds no shared spectrum; with the Canon's own curves no
+/// such warning.
+#[test]
+fn the_cli_warns_on_another_camera_s_curves_and_reports_the_check_in_lvf_json() {
+    if common::jiang::database("the line-colour CLI check").is_none() {
+        return;
+    }
+    let db = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/camera")
+        .join(common::jiang::DATABASE);
+    let db = db.to_str().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| common::p(dir.path(), n);
+    let canon = format!("{db}:Canon 5DMarkII");
+    let o = common::lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p("hg.tiff"),
+        "--truth",
+        &p("truth.json"),
+        "--camera",
+        &canon,
+        "--continuum",
+        "0.1",
+        "--vignetting",
+        "quadratic:0.3",
+        "--noise",
+        "0.01",
+        "--seed",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let run = |camera: &str, out: &str| {
+        let o = common::lumifit(&[
+            "lvf",
+            "calibrate",
+            &p("hg.tiff"),
+            "--axis",
+            "x",
+            "--out",
+            &p(out),
+            "--camera",
+            camera,
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p(out)).unwrap()).unwrap();
+        (common::stderr(&o), doc)
+    };
+    let (err, doc) = run(&format!("{db}:Nikon D700"), "wrong.json");
+    let cc = &doc["diagnostics"]["camera_check"];
+    assert_eq!(cc["consistent"], false, "{cc}");
+    assert!(cc["misfit"].as_f64().unwrap() > MISFIT_MAX);
+    assert!(!cc["shared_candidates_dropped"]
+        .as_array()
+        .unwrap()
+        .is_empty());
+    assert!(doc["background"]["shared_spectrum"].is_null());
+    assert!(
+        err.contains("colours disagree with the --camera curves") && err.contains("Nikon D700"),
+        "{err}"
+    );
+    let (err, doc) = run(&canon, "own.json");
+    assert_eq!(doc["diagnostics"]["camera_check"]["consistent"], true);
+    assert!(!err.contains("colours disagree"), "{err}");
 }

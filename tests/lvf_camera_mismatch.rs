@@ -9,7 +9,7 @@
 
 use std::path::PathBuf;
 
-use lumifit::io::camera::{parse_camera_database, parse_camera_file};
+use lumifit::io::camera::parse_camera_database;
 use lumifit::lvf::synth::{ContinuumShape, VignettingShape};
 use lumifit::lvf::{
     calibrate_whole_profile, extract_profile, render_lvf, Axis, CameraResponse, FitOptions, Lamp,
@@ -25,25 +25,7 @@ fn camera_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/camera")
 }
 
-/// The Academy-JSON camera `name` under ../shared/data/camera, or `None` after a skip message.
-fn academy(name: &str) -> Option<MultiSpectrum> {
-    let p = camera_dir().join(name);
-    match std::fs::read(&p) {
-        Ok(b) => Some(parse_camera_file(&b, name).unwrap()),
-        Err(_) => {
-            assert!(
-                std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
-                "LUMIFIT_REQUIRE_DATA=1 but {} is missing",
-                p.display()
-            );
-            eprintln!(
-                "SKIPPED: {} is absent; the camera-mismatch checks did not run",
-                p.display()
-            );
-            None
-        }
-    }
-}
+use common::jiang::academy;
 
 /// Signed λ error at 400 and 700 nm and the background model chosen.
 fn calibrate(

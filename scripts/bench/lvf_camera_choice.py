@@ -9,8 +9,9 @@ database (../shared/data/camera/jiang2013_camspec_all_cameras_long.csv, read in 
 of docs/performance.md, issue 12), then calibrates it once without --camera and once with
 --camera set to each of the database's 28 cameras. Prints, best shared-spectrum BIC first: the
 signed λ error at the true 400 / 700 nm positions, the background model BIC chose, the chosen
-fit's BIC, the best shared-spectrum candidate's BIC and the reported σ at 700 nm. Two calibrations
-run at a time.
+fit's BIC, the best shared-spectrum candidate's BIC (— when the line-colour check dropped them),
+the reported σ at 700 nm and the line-colour misfit of the curves (`diagnostics.camera_check`,
+`lumifit::lvf::line_colour`; "dropped" above its limit). Two calibrations run at a time.
 """
 
 import argparse
@@ -62,22 +63,25 @@ def main():
             cands = o["background"]["candidates"]
             shared = [x["bic"] for x in cands if x["model"].startswith("shared")]
             return cam, (lam(t["px_at_400"]) - 400, lam(t["px_at_700"]) - 700, o["background"]["model"],
-                         cands[0]["bic"], min(shared) if shared else None, o["sigma_nm_at_700"]), None
+                         cands[0]["bic"], min(shared) if shared else None, o["sigma_nm_at_700"],
+                         o["diagnostics"].get("camera_check")), None
 
         with ThreadPoolExecutor(2) as ex:
             res = list(ex.map(one, enumerate([None, *cams])))
     print(f"rendered through {a.render}: {a.lamp}, noise {a.noise}, vignetting {a.vignetting}, "
           f"continuum {a.continuum} {a.continuum_spectrum}, seed {a.seed}\n")
-    print("| --camera | error 400 / 700 nm | model chosen | BIC chosen | best shared BIC | σ at 700 |")
-    print("|---|---|---|---|---|---|")
+    print("| --camera | error 400 / 700 nm | model chosen | BIC chosen | best shared BIC | σ at 700 | colour misfit |")
+    print("|---|---|---|---|---|---|---|")
     res.sort(key=lambda r: (r[1] is None, r[1][4] if r[1] and r[1][4] is not None else float("inf")))
     for cam, v, err in res:
         name = "(none)" if cam is None else cam + (" ← rendering camera" if cam == a.render else "")
         if v is None:
-            print(f"| {name} | failed: {err} | | | | |")
+            print(f"| {name} | failed: {err} | | | | | |")
             continue
         sh = f"{v[4]:.1f}" if v[4] is not None else "—"
-        print(f"| {name} | {v[0]:+.3f} / {v[1]:+.3f} | {v[2]} | {v[3]:.1f} | {sh} | {v[5]:.3f} |")
+        cc = v[6]
+        mis = "—" if not cc else f"{cc['misfit']:.3f}" + ("" if cc["consistent"] else " dropped")
+        print(f"| {name} | {v[0]:+.3f} / {v[1]:+.3f} | {v[2]} | {v[3]:.1f} | {sh} | {v[5]:.3f} | {mis} |")
 
 
 if __name__ == "__main__":

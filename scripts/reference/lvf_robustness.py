@@ -7,11 +7,12 @@ shadows and hot pixels, and a filter along y.
 
     cargo build --release
     python3 scripts/reference/lvf_robustness.py [--lumifit target/release/lumifit] [--cases 0,30]
-        [--seeds 1-12] [--camera "Nokia N900"] [--write fixtures/lvf_reference]
+        [--seeds 1-12] [--camera "Nokia N900"] [--with-camera] [--write fixtures/lvf_reference]
 
 Prints a markdown table: the signed error of the fitted map at the true 400 / 700 nm positions,
 the reported σ there, the background model chosen and the first warning; with --seeds a row per
-noise draw; with --write the images and their truth JSON instead (test fixtures).
+noise draw; with --with-camera every calibration is also given the rendering camera's curves
+(`lvf calibrate --camera DB:NAME`) and the row says what the line-colour check found; with --write the images and their truth JSON instead (test fixtures).
 
 Images (unless a case says otherwise): 1200 x 160 px, lambda(px) = 372.3 + 0.3117 px (px = column,
 pixel centres at integers), passband FWHM 25 nm, Gaussian, the Canon 5D Mark II of the Jiang et al.
@@ -207,6 +208,8 @@ def main():
     ap.add_argument("--seeds", help="noise seeds FIRST-LAST: each case rendered once per seed "
                     "(default: the case's own, 1), a row per draw")
     ap.add_argument("--camera", help="render every case through this camera of the database instead")
+    ap.add_argument("--with-camera", action="store_true",
+                    help="give lvf calibrate the rendering camera's curves (--camera DB:NAME)")
     ap.add_argument("--write", metavar="DIR",
                     help="write each image as DIR/robustness_case{I}_seed{S}.png with its truth JSON "
                          "instead of calibrating (fixtures for the tests)")
@@ -259,9 +262,10 @@ def run_case(a, tmp, i, name, p, extra):
     truth = render(p, img)
     out = Path(tmp) / f"case{i}.json"
     axis = "y" if p.get("transpose") else "x"
-    r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", axis, "--out", str(out), *extra],
+    cam = ["--camera", f"{DB}:{p.get('camera', 'Canon 5DMarkII')}"] if a.with_camera else []
+    r = subprocess.run([a.lumifit, "lvf", "calibrate", str(img), "--axis", axis, "--out", str(out), *extra, *cam],
                        capture_output=True, text=True)
-    opts = " ".join(extra) or "defaults"
+    opts = " ".join(extra + (["--camera"] if cam else [])) or "defaults"
     if r.returncode != 0:
         print(f"| {i} | {name} | {opts} | exit {r.returncode}: {r.stderr.strip().splitlines()[-1][:120]} | | | |", flush=True)
         return
@@ -271,6 +275,9 @@ def run_case(a, tmp, i, name, p, extra):
     e4, e7 = lam(truth[400]) - 400, lam(truth[700]) - 700
     w = cal.get("warnings", [])
     first = (w[0][:90] + "…") if w else ""
+    cc = cal.get("diagnostics", {}).get("camera_check")
+    if cc:
+        first = f"colour misfit {cc['misfit']:.4f}{'' if cc['consistent'] else ' (shared dropped)'}; " + first
     beta = cal.get("passband", {}).get("beta")
     model = cal["background"]["model"] + (f", β {beta:.2f}" if beta else "") + (", quadratic map" if cal["map"]["kind"] == "quadratic" else "")
     print(f"| {i} | {name} | {opts} | {e4:+.3f} / {e7:+.3f} | {cal['sigma_nm_at_400']:.3f} / {cal['sigma_nm_at_700']:.3f} | {model} | {first} |", flush=True)

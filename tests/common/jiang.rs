@@ -35,3 +35,26 @@ pub fn database(what: &str) -> Option<Vec<u8>> {
 pub fn camera(db: &[u8], name: &str) -> MultiSpectrum {
     parse_camera_database(db, DATABASE, name).unwrap()
 }
+
+/// The Academy-JSON camera file `rel` under ../shared/data/camera (e.g.
+/// `rawtoaces-data/Canon_EOS_5D_Mark_II_380_780_5.json`), or `None` after a skip message.
+pub fn academy(rel: &str) -> Option<MultiSpectrum> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/camera")
+        .join(rel);
+    match std::fs::read(&p) {
+        Ok(b) => Some(lumifit::io::camera::parse_camera_file(&b, rel).unwrap()),
+        Err(_) => {
+            assert!(
+                std::env::var("LUMIFIT_REQUIRE_DATA").as_deref() != Ok("1"),
+                "LUMIFIT_REQUIRE_DATA=1 but {} is missing",
+                p.display()
+            );
+            eprintln!(
+                "SKIPPED: {} is absent; the camera-file checks did not run",
+                p.display()
+            );
+            None
+        }
+    }
+}
