@@ -66,7 +66,7 @@ impl CameraResponse {
     /// Q_r, Q_g, Q_b at `nm` (linear interpolation on the 1 nm grid, 0 outside).
     pub fn at(&self, nm: f64) -> [f64; 3] {
         let x = nm - self.first_nm;
-        if !x.is_finite() || x < 0.0 || x > self.q.len().saturating_sub(1) as f64 {
+        if self.q.is_empty() || !x.is_finite() || x < 0.0 || x > (self.q.len() - 1) as f64 {
             return [0.0; 3];
         }
         let i = (x.floor() as usize).min(self.q.len().saturating_sub(2));
@@ -218,5 +218,15 @@ mod tests {
         assert_eq!(cam.at(379.0), [0.0; 3]);
         assert_eq!(cam.at(781.0), [0.0; 3]);
         assert_eq!(cam.at(f64::NAN), [0.0; 3]);
+        let empty = CameraResponse {
+            q: Vec::new(),
+            ..cam.clone()
+        };
+        assert_eq!(empty.at(380.0), [0.0; 3]);
+        let one = CameraResponse {
+            q: vec![[1.0, 2.0, 3.0]],
+            ..cam
+        };
+        assert_eq!(one.at(380.0), [1.0, 2.0, 3.0]);
     }
 }
