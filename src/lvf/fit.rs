@@ -2150,7 +2150,28 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         nm_at_400_position: lam_of(&pr, &theta, u400),
         nm_at_700_position: lam_of(&pr, &theta, u700),
     });
-    for (cpr, cf, cb) in others.iter().chain(&map_alternatives) {
+    // Curves that fit the lines' colours only nearly (`lvf::line_colour::MISFIT_NEAR`): the
+    // per-channel passband continuum — the model of what lies under the lines that needs no
+    // curves (see `focused_refinement`) — counts as a model-choice alternative of a chosen
+    // shared spectrum (the best by BIC of that family; of any continuum without the curves when
+    // there is none). The best by BIC alone was tried: on the D80-on-D700 image it is a spline
+    // in u that agrees with the shared spectrum's biased map (σ unchanged, 0.23 for +0.585 nm).
+    let near_alternative = camera_check
+        .as_ref()
+        .filter(|cc| cc.check.near() && pr.terms.shared_intervals > 0)
+        .and_then(|_| {
+            let best = |family: &dyn Fn(&BackgroundTerms) -> bool| {
+                others
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (p, _, _))| p.n_map == pr.n_map && family(&p.terms))
+                    .min_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
+                    .map(|(i, _)| i)
+            };
+            best(&|t| t.passband_intervals > 0)
+                .or_else(|| best(&|t| t.shared_intervals == 0 && t.has_continuum()))
+        });
+    for (k, (cpr, cf, cb)) in others.iter().chain(&map_alternatives).enumerate() {
         let l4 = lam_of(cpr, &cf.theta, u400);
         let l7 = lam_of(cpr, &cf.theta, u700);
         // a map of the other degree (`--map auto`) counts as a background alternative would
@@ -2161,7 +2182,7 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
             cb - best_bic <= MODEL_CHOICE_DELTA_BIC
         } else {
             cb - best_bic <= 10.0 || (pr.terms.has_continuum() && cpr.terms.has_continuum())
-        };
+        } || near_alternative == Some(k);
         if counted {
             if let Some(l) = l4 {
                 sys[0] = sys[0].max((l - 400.0).abs());
@@ -2457,8 +2478,18 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
             "consistent": !cc.check.inconsistent(),
             "lines": cc.check.lines,
             "shared_candidates_dropped": cc.dropped.iter().map(|(m, b)| serde_json::json!({"model": m, "bic": b})).collect::<Vec<_>>(),
-            "note": "each judged line's per-channel amplitudes (summed with the lines within half a FWHM it dominates) against the camera's colour at those lines, one free scale per line, from the best fit whose continuum is shared through the curves; misfit = sqrt(sum |observed - predicted|^2 / sum |observed|^2)",
+            "misfit_near": crate::lvf::line_colour::MISFIT_NEAR,
+            "near_alternative_counted": near_alternative.map(|k| others[k].0.terms.name()),
+            "note": "each judged line's per-channel amplitudes (summed with the lines within half a FWHM it dominates) against the camera's colour at those lines, one free scale per line, from the best fit whose continuum is shared through the curves; misfit = sqrt(sum |observed - predicted|^2 / sum |observed|^2); above misfit_max the shared spectrum is not used, above misfit_near the best fit without it counts in the model-choice systematic of sigma (near_alternative_counted)",
         });
+        if let Some(k) = near_alternative {
+            cal.warnings.push(format!(
+                "the lamp lines' colours fit the --camera curves ({}) only to {:.1} % (the image's own curves fit lumifit's renders to ≤ 1 %, two measurements of one camera model differ by 1–3 %): σ at 400/700 nm counts the map of the best fit without the shared spectrum ({}) as a model-choice alternative",
+                opts.camera.as_ref().map_or("", |c| c.source.as_str()),
+                100.0 * cc.check.misfit,
+                others[k].0.terms.name()
+            ));
+        }
         if cc.check.inconsistent() {
             // the three lines furthest off the curves' colours
             let off = |j: &crate::lvf::line_colour::JudgedLine| {

@@ -173,9 +173,9 @@ pub struct CalibrateArgs {
     /// (the image must be linear raw, channels as in the table), and is the camera
     /// --flat-spectrum is seen through. Give the image's own camera: the lamp lines' colours
     /// judge the curves (diagnostics.camera_check), and curves more than 3 % off them are not
-    /// used for the continuum (a warning names the lines); σ assumes curves that pass, and a
-    /// close camera (the Nikon D80's curves on a D700 image) can still pass and move the map
-    /// by ≈ 0.5 nm at 5 % noise without raising σ.
+    /// used for the continuum (a warning names the lines); between 1.5 and 3 % σ counts the
+    /// map without them (a close other camera, the Nikon D80's on a D700 image, or the same
+    /// model measured elsewhere land there).
     #[arg(long)]
     pub camera: Option<PathBuf>,
 }
