@@ -89,13 +89,16 @@ impl CameraResponse {
 }
 
 /// Judges `cam` against the lines `nm` with fitted per-channel amplitudes `amp` (a passband of
-/// `fwhm_nm`). None when no line can be judged.
+/// `fwhm_nm`). None when no line can be judged or `amp` does not give one entry per line.
 pub fn check(
     cam: &CameraResponse,
     nm: &[f64],
     amp: &[[f64; 3]],
     fwhm_nm: f64,
 ) -> Option<LineColourCheck> {
+    if amp.len() != nm.len() {
+        return None;
+    }
     let half = NEIGHBOURHOOD_FWHM * fwhm_nm;
     let total = |a: &[f64; 3]| a.iter().map(|v| v.max(0.0)).sum::<f64>();
     let mut judged: Vec<JudgedLine> = Vec::new();
@@ -216,6 +219,7 @@ mod tests {
         assert!(check(&cam, &nm, &amp, 25.0).unwrap().inconsistent());
         assert!(check(&cam, &nm, &[[0.0; 3]; 2], 25.0).is_none());
         assert!(check(&cam, &[900.0], &[[1.0, 1.0, 1.0]], 25.0).is_none());
+        assert!(check(&cam, &nm, &amp[..1], 25.0).is_none());
     }
 
     #[test]
