@@ -2480,11 +2480,11 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
             "shared_candidates_dropped": cc.dropped.iter().map(|(m, b)| serde_json::json!({"model": m, "bic": b})).collect::<Vec<_>>(),
             "misfit_near": crate::lvf::line_colour::MISFIT_NEAR,
             "near_alternative_counted": near_alternative.map(|k| others[k].0.terms.name()),
-            "note": "each judged line's per-channel amplitudes (summed with the lines within half a FWHM it dominates) against the camera's colour at those lines, one free scale per line, from the best fit whose continuum is shared through the curves; misfit = sqrt(sum |observed - predicted|^2 / sum |observed|^2); above misfit_max the shared spectrum is not used, above misfit_near the best fit without it counts in the model-choice systematic of sigma (near_alternative_counted)",
+            "note": "each judged line's per-channel amplitudes (summed with the lines within half a FWHM it dominates) against the camera's colour at those lines, one free scale per line, from the best fit whose continuum is shared through the curves; misfit = sqrt(sum |observed - predicted|^2 / sum |observed|^2); above misfit_max the shared spectrum is not used, above misfit_near the best per-channel passband-continuum fit (or, without one, the best other continuum not shared) counts in the model-choice systematic of sigma (near_alternative_counted)",
         });
         if let Some(k) = near_alternative {
             cal.warnings.push(format!(
-                "the lamp lines' colours fit the --camera curves ({}) only to {:.1} % (the image's own curves fit lumifit's renders to ≤ 1 %, two measurements of one camera model differ by 1–3 %): σ at 400/700 nm counts the map of the best fit without the shared spectrum ({}) as a model-choice alternative",
+                "the lamp lines' colours fit the --camera curves ({}) only to {:.1} % (the image's own curves fit lumifit's renders to ≤ 1 %, two measurements of one camera model differ by 1–3 %): σ at 400/700 nm counts the map of the best fit that draws the continuum per channel ({}) as a model-choice alternative",
                 opts.camera.as_ref().map_or("", |c| c.source.as_str()),
                 100.0 * cc.check.misfit,
                 others[k].0.terms.name()
