@@ -21,6 +21,19 @@ fn given(cam: &MultiSpectrum, name: &str) -> FitOptions {
     }
 }
 
+/// A CFL under its phosphor continuum (10 %), quadratic vignetting 0.3, 5 % noise, rendered
+/// through `camera` (issue 12's geometry).
+fn cfl_at_5_percent(camera: MultiSpectrum, seed: u64) -> lumifit::lvf::LvfSynthSpec {
+    common::lvf_geometry::spec(
+        Lamp::cfl(),
+        camera,
+        0.05,
+        (VignettingShape::Quadratic, 0.3),
+        Some((ContinuumShape::Cfl, 0.10)),
+        seed,
+    )
+}
+
 /// (misfit, consistent, shared-continuum candidates dropped) from `diagnostics.camera_check`.
 fn check(cal: &LvfCalibration) -> (f64, bool, usize) {
     let c = &cal.diagnostics["camera_check"];
@@ -48,14 +61,7 @@ fn another_camera_s_curves_are_caught_by_the_line_colours_and_not_used() {
     };
     let canon = common::jiang::camera(&db, "Canon 5DMarkII");
     let d80 = common::jiang::camera(&db, "Nikon D80");
-    let s = common::lvf_geometry::spec(
-        Lamp::cfl(),
-        canon.clone(),
-        0.05,
-        (VignettingShape::Quadratic, 0.3),
-        Some((ContinuumShape::Cfl, 0.10)),
-        5,
-    );
+    let s = cfl_at_5_percent(canon.clone(), 5);
     let (cal, e) = common::lvf_geometry::calibrated(&s, &given(&d80, "Nikon D80"));
     let (misfit, consistent, dropped) = check(&cal);
     let bg = cal.background.clone().unwrap();
@@ -94,14 +100,7 @@ fn a_close_camera_that_only_nearly_fits_the_line_colours_widens_sigma() {
     };
     let d700 = common::jiang::camera(&db, "Nikon D700");
     let d80 = common::jiang::camera(&db, "Nikon D80");
-    let s = common::lvf_geometry::spec(
-        Lamp::cfl(),
-        d700,
-        0.05,
-        (VignettingShape::Quadratic, 0.3),
-        Some((ContinuumShape::Cfl, 0.10)),
-        1,
-    );
+    let s = cfl_at_5_percent(d700, 1);
     let (cal, e) = common::lvf_geometry::calibrated(&s, &given(&d80, "Nikon D80"));
     let c = &cal.diagnostics["camera_check"];
     let misfit = c["misfit"].as_f64().unwrap();

@@ -2,7 +2,7 @@
 
     cargo build --release
     python3 scripts/bench/lvf_camera_check.py [--cases 5,9,13,15,16] [--seeds 1-2] \
-        [--lumifit PATH] [--before PATH]
+        [--lumifit PATH] [--before PATH] [--own-only]
 
 Renders the cases of scripts/bench/lvf_continuum.py (by index) with `lumifit synth lvf-hg`
 through the Canon 5D Mark II, Nikon D700 and SONY NEX-5N of the Jiang database
@@ -13,7 +13,9 @@ row per fit (max |λ error| at 400 / 700 nm, σ at 700, the model chosen, the mi
 shared spectrum was dropped) and a summary: the largest misfit of the own cameras, and — with
 --before, a binary without the check, run on the same images — the wrong-camera fits that took
 the shared spectrum there and missed by more than 0.15 nm, how many the check drops and what
-they give after. Two calibrations run at a time.
+they give after. --own-only calibrates with the rendering camera alone (`--cases all --seeds
+1-3 --own-only`: the 135 renders of docs/performance.md, issue 12, twenty-sixth session). Two
+calibrations run at a time.
 """
 
 import argparse
@@ -35,17 +37,19 @@ OTHERS = ["Nokia N900", "Canon 20D", "Nikon D80", "Canon 1DMarkIII", "Nikon D3",
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", default="5,9,13,15,16")
+    ap.add_argument("--cases", default="5,9,13,15,16", help="indices of lvf_continuum.py's cases, or all")
     ap.add_argument("--seeds", default="1-2")
     ap.add_argument("--lumifit", default=str(ROOT / "target" / "release" / "lumifit"))
     ap.add_argument("--before", help="a binary without the check, run on the same images")
+    ap.add_argument("--own-only", action="store_true", help="calibrate with the rendering camera only")
     a = ap.parse_args()
     lo, _, hi = a.seeds.partition("-")
     seeds = range(int(lo), int(hi or lo) + 1)
     with tempfile.TemporaryDirectory(dir=ROOT / "target") as d:
         d = Path(d)
         images = []
-        for ci in (int(i) for i in a.cases.split(",")):
+        indices = range(len(CASES)) if a.cases == "all" else [int(i) for i in a.cases.split(",")]
+        for ci in indices:
             _, lamp, noise, vig, cont, spec = CASES[ci]
             for r in RENDER:
                 for s in seeds if noise > 0 else [1]:
@@ -71,16 +75,17 @@ def main():
             err = max(abs(lam(t["px_at_400"]) - 400), abs(lam(t["px_at_700"]) - 700))
             return job, (err, o["sigma_nm_at_700"], o["background"]["model"], o["diagnostics"].get("camera_check"))
 
-        jobs = [(a.lumifit, im, cam, "n") for im in images for cam in RENDER + OTHERS]
+        cams = lambda im: [im[2]] if a.own_only else RENDER + OTHERS
+        jobs = [(a.lumifit, im, cam, "n") for im in images for cam in cams(im)]
         if a.before:
-            jobs += [(a.before, im, cam, "b") for im in images for cam in RENDER + OTHERS if cam != im[2]]
+            jobs += [(a.before, im, cam, "b") for im in images for cam in cams(im) if cam != im[2]]
         with ThreadPoolExecutor(2) as ex:
             res = {(j[1][4], j[2], j[3]): v for j, v in ex.map(fit, jobs)}
     print("| case | rendered | seed | --camera | max error 400/700 nm | σ 700 | model | misfit |")
     print("|---|---|---|---|---|---|---|---|")
     own, harmful = [], []
     for ci, lamp, r, s, stem in images:
-        for cam in RENDER + OTHERS:
+        for cam in [r] if a.own_only else RENDER + OTHERS:
             v = res.get((stem, cam, "n"))
             if v is None:
                 print(f"| {ci} | {r} | {s} | {cam} | failed | | | |")

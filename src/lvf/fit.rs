@@ -2491,37 +2491,7 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
             ));
         }
         if cc.check.inconsistent() {
-            // the three lines furthest off the curves' colours
-            let off = |j: &crate::lvf::line_colour::JudgedLine| {
-                let d: f64 = (0..3)
-                    .map(|c| (j.observed[c] - j.predicted[c]).powi(2))
-                    .sum();
-                let o: f64 = j.observed.iter().map(|v| v * v).sum();
-                d / o.max(1e-300)
-            };
-            let mut far: Vec<&crate::lvf::line_colour::JudgedLine> =
-                cc.check.lines.iter().collect();
-            far.sort_by(|a, b| off(b).total_cmp(&off(a)));
-            far.truncate(3);
-            let worst = far
-                .into_iter()
-                .map(|j| {
-                    let ratio = |a: [f64; 3]| {
-                        if a[1] > 0.0 {
-                            format!("{:.2} : 1 : {:.2}", a[0] / a[1], a[2] / a[1])
-                        } else {
-                            "-".into()
-                        }
-                    };
-                    format!(
-                        "{} nm r:g:b {} where the curves give {}",
-                        j.nm,
-                        ratio(j.observed),
-                        ratio(j.predicted)
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(", ");
+            let worst = cc.check.furthest_off(3);
             cal.warnings.push(format!(
                 "the lamp lines' colours disagree with the --camera curves ({}) by {:.1} % (at most {:.0} % is taken as the image's own camera): {worst}; these curves are not the image's channels (another camera, a white-balanced, 8-bit or otherwise processed image), so the continuum shared through them was not used{}",
                 opts.camera.as_ref().map_or("", |c| c.source.as_str()),

@@ -62,7 +62,47 @@ pub struct LineColourCheck {
     pub lines: Vec<JudgedLine>,
 }
 
+impl JudgedLine {
+    /// ‖observed − predicted‖² / ‖observed‖²: how far the line's colour is off the curves'.
+    pub fn relative_misfit_squared(&self) -> f64 {
+        let d: f64 = (0..3)
+            .map(|c| (self.observed[c] - self.predicted[c]).powi(2))
+            .sum();
+        let o: f64 = self.observed.iter().map(|v| v * v).sum();
+        d / o.max(1e-300)
+    }
+}
+
 impl LineColourCheck {
+    /// The `n` judged lines furthest off the curves' colours, as "λ nm r:g:b R : 1 : B where the
+    /// curves give R' : 1 : B'" joined by commas (for a warning).
+    pub fn furthest_off(&self, n: usize) -> String {
+        let mut far: Vec<&JudgedLine> = self.lines.iter().collect();
+        far.sort_by(|a, b| {
+            b.relative_misfit_squared()
+                .total_cmp(&a.relative_misfit_squared())
+        });
+        let ratio = |a: [f64; 3]| {
+            if a[1] > 0.0 {
+                format!("{:.2} : 1 : {:.2}", a[0] / a[1], a[2] / a[1])
+            } else {
+                "-".into()
+            }
+        };
+        far.iter()
+            .take(n)
+            .map(|j| {
+                format!(
+                    "{} nm r:g:b {} where the curves give {}",
+                    j.nm,
+                    ratio(j.observed),
+                    ratio(j.predicted)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// True when the curves are judged not to be the image's ([`MISFIT_MAX`]).
     pub fn inconsistent(&self) -> bool {
         self.misfit > MISFIT_MAX
@@ -197,6 +237,13 @@ mod tests {
         // another camera: r rising twice as fast
         let other = check(&camera(1.0), &nm, &amp, 25.0).unwrap();
         assert!(other.inconsistent(), "{other:?}");
+        // the warning names the lines furthest off first: red rises with λ in the other curves
+        let far = other.furthest_off(2);
+        assert_eq!(far.matches(" nm r:g:b ").count(), 2, "{far}");
+        assert!(
+            far.starts_with("404.656 nm") || far.starts_with("579.066 nm"),
+            "{far}"
+        );
         // a split traded inside an unresolved pair leaves the check unmoved
         let mut traded = amp.clone();
         let moved = traded[4].map(|a| 0.5 * a);

@@ -340,9 +340,9 @@ pub mod lvf_camera_colours {
     /// Nikon D80's curves given): −0.642 nm at 700 nm with σ 2.31 (before the check: +1.349 with
     /// σ 0.29, the shared spectrum chosen).
     pub const COVER_K: f64 = 2.0;
-    /// The image's own curves: the misfit measured on lumifit's renders is ≤ 0.010 (the 17 cases
-    /// of `scripts/bench/lvf_continuum.py`, three cameras, seeds 1–3: 135 images, none judged
-    /// inconsistent); asserted at half of `MISFIT_MAX`.
+    /// The image's own curves: the misfit measured on lumifit's renders is ≤ 0.010 (`python3
+    /// scripts/bench/lvf_camera_check.py --cases all --seeds 1-3 --own-only`: 135 images, none
+    /// judged inconsistent); asserted at half of `MISFIT_MAX`.
     pub const OWN_MISFIT_MAX: f64 = 0.015;
 }
 
