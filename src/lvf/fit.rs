@@ -1737,14 +1737,20 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         let c = fit_candidates(&candidates, &full_x, &starts_x, extra.len(), ln_n);
         (chosen_pr, chosen_fit, best_bic, others) = (c.pr, c.fit, c.bic, c.others);
         if let Some(cam) = &opts.camera {
-            camera_check = check_camera_colours(
-                cam,
-                &mut chosen_pr,
-                &mut chosen_fit,
-                &mut best_bic,
-                &mut others,
-            )
-            .or(camera_check);
+            // Judged again on the refit's amplitudes; when nothing can be judged there, the
+            // first verdict still holds for the refitted shared-continuum candidates.
+            let first = camera_check.take().map(|c| c.check);
+            camera_check = judge_camera_colours(cam, &chosen_pr, &chosen_fit, best_bic, &others)
+                .or(first)
+                .map(|check| {
+                    apply_camera_verdict(
+                        check,
+                        &mut chosen_pr,
+                        &mut chosen_fit,
+                        &mut best_bic,
+                        &mut others,
+                    )
+                });
         }
         // the chosen background refined once more with the unlisted wavelengths free, so the
         // map's covariance carries their uncertainty
@@ -2823,23 +2829,53 @@ fn check_camera_colours<'a>(
     best_bic: &mut f64,
     others: &mut Vec<(Problem<'a>, Fitted, f64)>,
 ) -> Option<CameraColours> {
-    let shared = |p: &Problem| p.terms.shared_intervals > 0;
-    let best_shared = std::iter::once((&*chosen_pr, &*chosen_fit, *best_bic))
+    let check = judge_camera_colours(cam, chosen_pr, chosen_fit, *best_bic, others)?;
+    Some(apply_camera_verdict(
+        check, chosen_pr, chosen_fit, best_bic, others,
+    ))
+}
+
+/// The lines' colours in the best (by BIC) shared-continuum candidate against `cam`; None when
+/// there is no such candidate or no line to judge.
+fn judge_camera_colours(
+    cam: &CameraResponse,
+    chosen_pr: &Problem,
+    chosen_fit: &Fitted,
+    best_bic: f64,
+    others: &[(Problem, Fitted, f64)],
+) -> Option<crate::lvf::line_colour::LineColourCheck> {
+    let best_shared = std::iter::once((chosen_pr, chosen_fit, best_bic))
         .chain(others.iter().map(|(p, f, b)| (p, f, *b)))
-        .filter(|(p, _, _)| shared(p))
+        .filter(|(p, _, _)| is_shared(p))
         .min_by(|a, b| a.2.total_cmp(&b.2))?;
     let (spr, sfit, _) = best_shared;
     let nm = spr.lines();
     let amp: Vec<[f64; 3]> = (0..nm.len())
         .map(|i| std::array::from_fn(|c| sfit.eval.alpha[c][N_BG + i]))
         .collect();
-    let check = crate::lvf::line_colour::check(cam, nm, &amp, spr.fwhm(&sfit.theta))?;
+    crate::lvf::line_colour::check(cam, nm, &amp, spr.fwhm(&sfit.theta))
+}
+
+fn is_shared(p: &Problem) -> bool {
+    p.terms.shared_intervals > 0
+}
+
+/// Acts on a verdict of the curves: when they are not the image's, every shared-continuum
+/// candidate is dropped and, if one was chosen, the best remaining candidate takes its place.
+fn apply_camera_verdict<'a>(
+    check: crate::lvf::line_colour::LineColourCheck,
+    chosen_pr: &mut Problem<'a>,
+    chosen_fit: &mut Fitted,
+    best_bic: &mut f64,
+    others: &mut Vec<(Problem<'a>, Fitted, f64)>,
+) -> CameraColours {
+    let shared = is_shared;
     if !check.inconsistent() {
-        return Some(CameraColours {
+        return CameraColours {
             check,
             dropped: Vec::new(),
             chosen_replaced: None,
-        });
+        };
     }
     let mut dropped: Vec<(String, f64)> = others
         .iter()
@@ -2860,11 +2896,11 @@ fn check_camera_colours<'a>(
         }
     }
     dropped.sort_by(|a, b| a.1.total_cmp(&b.1));
-    Some(CameraColours {
+    CameraColours {
         check,
         dropped,
         chosen_replaced,
-    })
+    }
 }
 
 /// Largest BIC lead of a spline in u over the passband continuum at which the focused criterion
