@@ -341,6 +341,60 @@ pub fn parse_camera_database(bytes: &[u8], source: &str, name: &str) -> Result<M
     parse_camera(csv.as_bytes(), &format!("{source}:{name}"))
 }
 
+/// Every camera of a database table (the formats of [`parse_camera_database`]), in the table's
+/// order, each named `FILE:NAME` as `--camera FILE:NAME` would name it.
+///
+/// # Errors
+/// [`Error::Io`] naming the file when it cannot be read; [`Error::Parse`] when the table holds no
+/// camera; those of [`parse_camera_database`] for any camera in it.
+pub fn read_camera_database(path: &Path) -> Result<Vec<(String, Camera)>> {
+    let (bytes, source) = super::read_input(path)?;
+    let text = crate::table::as_text(
+        &bytes,
+        &source,
+        "a camera database camera,wavelength_nm,r,g,b",
+    )?;
+    let rows: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|t| !t.is_empty() && !t.starts_with('#'))
+        .collect();
+    let long = rows
+        .first()
+        .is_some_and(|t| t.to_ascii_lowercase().starts_with("camera"))
+        || !jiang_text(text);
+    let mut names: Vec<String> = Vec::new();
+    if long {
+        for t in rows.iter().skip(1) {
+            let name = t.split(',').next().unwrap_or("").trim();
+            if !name.is_empty() && !names.iter().any(|n| n == name) {
+                names.push(name.to_string());
+            }
+        }
+    } else {
+        for w in rows.windows(2) {
+            if numeric_row(w[0]).is_none() && numeric_row(w[1]).is_some() {
+                names.push(w[0].to_string());
+            }
+        }
+    }
+    if names.is_empty() {
+        return Err(Error::parse(
+            &source,
+            0,
+            "no camera; expected a database camera,wavelength_nm,r,g,b (or Jiang et al.'s text database)",
+        ));
+    }
+    names
+        .into_iter()
+        .map(|name| {
+            let curves = parse_camera_database(&bytes, &source, &name)?;
+            let source = format!("{source}:{name}");
+            Ok((name, Camera { curves, source }))
+        })
+        .collect()
+}
+
 /// Jiang et al.'s database as distributed (`camspec_database.txt`): blocks of a camera name
 /// line and three lines (R, G, B) of whitespace-separated sensitivities, possibly after a few
 /// lines of preamble. Told apart from the long CSV by a name line followed by a numeric line.
@@ -498,6 +552,42 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `--camera-database`: every camera of a long CSV or of Jiang et al.'s text, in the file's
+    /// order; a table without a camera is refused naming the file.
+    #[test]
+    fn a_whole_database_is_read_in_its_order_in_either_format() {
+        let dir = tempfile::tempdir().unwrap();
+        let long = dir.path().join("db.csv");
+        std::fs::write(
+            &long,
+            "camera,wavelength_nm,r,g,b\n# comment\nCam B,400,0.1,0.2,0.3\nCam B,460,0.3,0.2,0.1\nCam A,400,0.2,0.2,0.2\nCam A,460,0.1,0.1,0.1\n",
+        )
+        .unwrap();
+        let cams = read_camera_database(&long).unwrap();
+        let names: Vec<&str> = cams.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["Cam B", "Cam A"]);
+        assert_eq!(cams[1].1.curves.channel(0), &[0.2, 0.1]);
+        assert!(
+            cams[0].1.source.ends_with("db.csv:Cam B"),
+            "{}",
+            cams[0].1.source
+        );
+        let txt = dir.path().join("db.txt");
+        std::fs::write(
+            &txt,
+            "400nm-440nm, step 10nm\n\nCam C\n0.1 0.2 0.3 0.4 0.5\n0.2 0.3 0.4 0.5 0.6\n0.3 0.4 0.5 0.6 0.7\nCam D\n1 2 3 4 5\n2 3 4 5 6\n3 4 5 6 7\n",
+        )
+        .unwrap();
+        let cams = read_camera_database(&txt).unwrap();
+        let names: Vec<&str> = cams.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["Cam C", "Cam D"]);
+        assert_eq!(cams[1].1.curves.channel(2), &[3.0, 4.0, 5.0, 6.0, 7.0]);
+        let empty = dir.path().join("empty.csv");
+        std::fs::write(&empty, "camera,wavelength_nm,r,g,b\n").unwrap();
+        let e = read_camera_database(&empty).unwrap_err().to_string();
+        assert!(e.contains("empty.csv") && e.contains("no camera"), "{e}");
+    }
 
     /// Jiang et al.'s text database (a preamble, then name + R, G, B rows) reads the named
     /// camera on its stated grid; the long CSV of the same numbers gives the same curves; a short

@@ -7,11 +7,12 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::io::camera::{camera_file, read_camera};
+use crate::io::camera::{camera_file, read_camera, read_camera_database, Camera};
 use crate::io::series::read_frame;
 use crate::io::sources::{file_of, resolve_lamp, resolve_passband};
 use crate::limits::check_count;
 use crate::lvf::flat::{calibrate_with_flat, FlatField, FlatSpectrum};
+use crate::lvf::line_colour::MISFIT_NEAR;
 use crate::lvf::{
     calibrate_peaks, calibrate_whole_profile, prepare_profile, Axis, CameraResponse, FitOptions,
     LvfCalibration, Passband, TiltChoice,
@@ -45,6 +46,9 @@ pub struct CalibrateInputs {
     pub passband: String,
     /// Camera sensitivities (CSV, `DATABASE:NAME` or Academy JSON).
     pub camera: Option<PathBuf>,
+    /// A camera database (`camera,wavelength_nm,r,g,b` or Jiang et al.'s text) whose camera the
+    /// lamp lines' colours pick when `camera` is not given ([`pick_database_camera`]).
+    pub camera_database: Option<PathBuf>,
     /// Flat-field photo through the LVF.
     pub flat: Option<PathBuf>,
     /// Spectrum of the flat's source (`flat`, `blackbody:K`, `cfl`); needs `camera`.
@@ -64,6 +68,7 @@ impl CalibrateInputs {
         out.extend(file_of(&self.passband));
         out.extend(self.flat.clone());
         out.extend(self.camera.iter().map(|c| camera_file(c)));
+        out.extend(self.camera_database.clone());
         out
     }
 }
@@ -183,6 +188,23 @@ pub fn calibrate_lamp(
             "needs --camera (the flat's spectrum is seen through the camera's sensitivities): give a CSV wavelength_nm,r,g,b or DATABASE:NAME",
         ));
     }
+    if inputs.camera_database.is_some() && inputs.camera.is_some() {
+        return Err(Error::flag(
+            "--camera-database",
+            "give --camera or --camera-database, not both: --camera names your camera's curves, --camera-database lets the lamp lines' colours pick a camera of the database",
+        ));
+    }
+    if inputs.camera_database.is_some() && method == CalibrationMethod::Peaks {
+        return Err(Error::flag(
+            "--camera-database",
+            "works with --method whole-profile only (peak picking fits no continuum)",
+        ));
+    }
+    let database = inputs
+        .camera_database
+        .as_deref()
+        .map(|p| read_camera_database(p).map(|cams| (p.display().to_string(), cams)))
+        .transpose()?;
     let lamp = resolve_lamp(&inputs.lamp)?;
     opts.passband_exponent_search = inputs.passband.trim().eq_ignore_ascii_case("gennorm");
     opts.passband = if opts.passband_exponent_search {
@@ -238,12 +260,21 @@ pub fn calibrate_lamp(
         }
     };
     let t = std::time::Instant::now();
-    let calibration = match (method, &flat) {
-        (CalibrationMethod::WholeProfile, None) => calibrate_whole_profile(profile, &lamp, &opts),
-        (CalibrationMethod::WholeProfile, Some(f)) => calibrate_with_flat(profile, &lamp, &opts, f),
-        (CalibrationMethod::Peaks, _) => calibrate_peaks(profile, &lamp, &opts),
+    let fit = |o: &FitOptions| {
+        match (method, &flat) {
+            (CalibrationMethod::WholeProfile, None) => calibrate_whole_profile(profile, &lamp, o),
+            (CalibrationMethod::WholeProfile, Some(f)) => calibrate_with_flat(profile, &lamp, o, f),
+            (CalibrationMethod::Peaks, _) => calibrate_peaks(profile, &lamp, o),
+        }
+        .map_err(|e| e.context(format!("calibrating {image_name}")))
+    };
+    let mut calibration = fit(&opts)?;
+    let mut database_report = None;
+    if let Some((name, cams)) = &database {
+        let (c, report) = pick_database_camera(name, cams, calibration, &opts, &fit, notify)?;
+        calibration = c;
+        database_report = Some(report);
     }
-    .map_err(|e| e.context(format!("calibrating {image_name}")))?;
     let seconds = t.elapsed().as_secs_f64();
     for w in &calibration.warnings {
         notify(format!("warning: {image_name}: {w}"));
@@ -254,11 +285,125 @@ pub fn calibrate_lamp(
     for (k, v) in prepared.diagnostics() {
         json["diagnostics"][k] = v;
     }
+    if let Some(r) = database_report {
+        json["diagnostics"]["camera_database"] = r;
+    }
     Ok(LampCalibration {
         calibration,
         json,
         seconds,
     })
+}
+
+/// How many cameras of a `--camera-database`, the best by the colours of the lines fitted
+/// without curves, are fitted with their curves ([`pick_database_camera`]).
+pub const DATABASE_TRIES: usize = 3;
+
+/// `--camera-database`: the camera whose curves the lamp lines' colours ask for, when the user
+/// has none of their own. The lines fitted without curves (`without`) rank every camera of the
+/// database by the misfit of their colours ([`crate::lvf::line_colour::check`]); the
+/// [`DATABASE_TRIES`] best are fitted with their curves, and of those whose lines' colours then
+/// match as closely as the image's own curves do (misfit ≤
+/// [`crate::lvf::line_colour::MISFIT_NEAR`], not merely within `MISFIT_MAX`) the one with the
+/// smallest misfit is kept. None matching: `without` is kept. Measured (docs/performance.md,
+/// issue 12, `scripts/bench/lvf_camera_database.py`): curves in the near zone — the same model
+/// measured elsewhere, a sibling — moved a CFL's 700 nm by 0.6–0.7 nm at 5 % noise where the fit
+/// without curves was within 0.12 nm, so only a clean match is used. The colours in a fit without curves are rough (each
+/// channel's continuum trades with its lines: misfits 0.05–0.1 for cameras that pass at
+/// ≤ 0.01 with curves), so they only rank, and the check with curves decides. Returns the
+/// calibration kept and `diagnostics.camera_database`.
+///
+/// # Errors
+/// Those of `fit`.
+pub fn pick_database_camera(
+    database: &str,
+    cameras: &[(String, Camera)],
+    without: LvfCalibration,
+    opts: &FitOptions,
+    fit: &dyn Fn(&FitOptions) -> Result<LvfCalibration>,
+    notify: &mut dyn FnMut(String),
+) -> Result<(LvfCalibration, serde_json::Value)> {
+    let nm: Vec<f64> = without.lines.iter().map(|l| l.nm).collect();
+    let amp: Vec<[f64; 3]> = without.lines.iter().map(|l| l.amplitude).collect();
+    let mut ranked: Vec<(f64, &str, CameraResponse)> = Vec::new();
+    for (name, cam) in cameras {
+        // a table too short for the shared spectrum is no candidate
+        let Ok(resp) = CameraResponse::from_curves(&cam.curves, &cam.source) else {
+            continue;
+        };
+        if let Some(c) = crate::lvf::line_colour::check(&resp, &nm, &amp, without.fwhm_nm) {
+            ranked.push((c.misfit, name, resp));
+        }
+    }
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let ranking: Vec<serde_json::Value> = ranked
+        .iter()
+        .take(2 * DATABASE_TRIES)
+        .map(|(m, name, _)| serde_json::json!({"camera": name, "misfit_without_curves": m}))
+        .collect();
+    let n_try = ranked.len().min(DATABASE_TRIES);
+    let mut tried = Vec::new();
+    let mut best: Option<(f64, &str, LvfCalibration)> = None;
+    for (k, (m0, name, resp)) in ranked.iter().take(n_try).enumerate() {
+        notify(format!(
+            "note: --camera-database: fitting with the curves of '{name}' ({}/{n_try})",
+            k + 1
+        ));
+        let mut o = opts.clone();
+        o.camera = Some(resp.clone());
+        let cal = fit(&o)?;
+        let cc = &cal.diagnostics["camera_check"];
+        let misfit = cc["misfit"].as_f64();
+        let consistent = cc["consistent"].as_bool() == Some(true);
+        let matches = consistent && misfit.is_some_and(|m| m <= MISFIT_NEAR);
+        tried.push(serde_json::json!({
+            "camera": name,
+            "misfit_without_curves": m0,
+            "misfit": misfit,
+            "consistent": consistent,
+            "matches": matches,
+        }));
+        if let (true, Some(m)) = (matches, misfit) {
+            if best.as_ref().is_none_or(|b| m < b.0) {
+                best = Some((m, name, cal));
+            }
+        }
+    }
+    let chosen = best.as_ref().map(|b| b.1.to_string());
+    let report = serde_json::json!({
+        "database": database,
+        "cameras": cameras.len(),
+        "ranked": ranking,
+        "tried": tried,
+        "chosen": chosen,
+        "misfit_max": MISFIT_NEAR,
+        "note": "no --camera: every camera of the database ranked by the misfit of the lamp lines' colours in the fit without curves (rough: each channel's continuum trades with its lines), the best few fitted with their curves, and of those whose lines' colours then match as closely as an image's own curves do (misfit <= misfit_max, diagnostics.camera_check) the smallest misfit kept; none matching: the fit without curves. A database camera is not yours: where its curves differ from your camera's the map can move (σ counts the choice of continuum model, not of camera)",
+    });
+    match best {
+        Some((m, name, mut cal)) => {
+            cal.warnings.insert(
+                0,
+                format!(
+                    "no --camera: the lamp lines' colours match '{name}' of {database} best (misfit {m:.3} ≤ {:.3}); its curves draw the continuum spectrum shared by the three channels. A database camera is not yours: where its curves differ the map can move by more than σ says (the Nikon D3's curves on a D700 image: up to 0.24 nm at 700 nm); give your camera's own curves with --camera when you have them",
+                    MISFIT_NEAR
+                ),
+            );
+            Ok((cal, report))
+        }
+        None => {
+            let mut cal = without;
+            let best_tried = ranked
+                .first()
+                .map_or("none".to_string(), |r| format!("'{}'", r.1));
+            cal.warnings.insert(
+                0,
+                format!(
+                    "--camera-database: no camera of {database} matches the lamp lines' colours with its curves to misfit {MISFIT_NEAR} ({n_try} tried, the closest by colour {best_tried}; diagnostics.camera_database): calibrated without camera curves"
+                ),
+            );
+            Ok((cal, report))
+        }
+    }
 }
 
 /// What `lvf calibrate` prints: the output's name, the method, map, FWHM, residuals, σ at 400 /

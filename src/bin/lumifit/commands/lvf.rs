@@ -178,6 +178,17 @@ pub struct CalibrateArgs {
     /// model measured elsewhere land there).
     #[arg(long)]
     pub camera: Option<PathBuf>,
+    /// Without your camera's curves: a camera database (long CSV camera,wavelength_nm,r,g,b such
+    /// as ../shared/data/camera/jiang2013_camspec_all_cameras_long.csv, or Jiang et al.'s
+    /// camspec_database.txt). The lamp is fitted without curves, the database's cameras ranked by
+    /// the lines' colours, the three best fitted with their curves, and the one whose curves
+    /// then match the colours as closely as an image's own curves do (misfit ≤ 0.015) is used
+    /// as --camera would be (a warning names it; diagnostics.camera_database); none matching,
+    /// the fit without curves is kept. About four fits' time. A database camera is not yours:
+    /// it helps when the database holds your camera's sensor (a CFL at 5 % noise), and costs a
+    /// little where the fit without curves is already good (docs/capture.md).
+    #[arg(long, conflicts_with = "camera")]
+    pub camera_database: Option<PathBuf>,
 }
 
 /// Noise weights of the whole-profile fit.
@@ -269,6 +280,7 @@ fn calibrate(a: &CalibrateArgs) -> Result<()> {
         lamp: a.lamp.clone(),
         passband: a.passband.clone(),
         camera: a.camera.clone(),
+        camera_database: a.camera_database.clone(),
         flat: a.flat.clone(),
         flat_spectrum: a.flat_spectrum.clone(),
         tilt: a.tilt.parse()?,
