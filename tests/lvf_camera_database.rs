@@ -35,11 +35,14 @@ fn leave_out(db: &std::path::Path, camera: &str, dir: &std::path::Path) -> Strin
         .to_string()
 }
 
-/// A CFL under its phosphor continuum (10 %), quadratic vignetting 0.3, 5 % noise through
-/// `camera` of the database (issue 12's geometry: 372.3 nm + 0.3117 nm/px, FWHM 25 nm), calibrated without curves and with `--camera-database` (the
+/// A `lamp` (`cfl` under its phosphor continuum, `hg` under a flat one; 10 %), quadratic
+/// vignetting 0.3, `noise`, through `camera` of the database (issue 12's geometry: 372.3 nm +
+/// 0.3117 nm/px, FWHM 25 nm), calibrated without curves and with `--camera-database` (the
 /// database without `camera`): (lvf.json without, lvf.json with, stderr with, truth).
 fn without_and_with_database(
     camera: &str,
+    lamp: &str,
+    noise: &str,
     seed: &str,
 ) -> Option<(
     serde_json::Value,
@@ -51,15 +54,16 @@ fn without_and_with_database(
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| common::p(dir.path(), n);
     let render = format!("{}:{camera}", db.display());
+    let spectrum = if lamp == "cfl" { "cfl" } else { "flat" };
     let o = common::lumifit(&[
         "synth",
         "lvf-hg",
         "--out",
-        &p("cfl.tiff"),
+        &p("lamp.tiff"),
         "--truth",
         &p("truth.json"),
         "--lamp",
-        "cfl",
+        lamp,
         "--nm-at-start",
         "372.3",
         "--nm-per-px",
@@ -71,20 +75,20 @@ fn without_and_with_database(
         "--continuum",
         "0.1",
         "--continuum-spectrum",
-        "cfl",
+        spectrum,
         "--vignetting",
         "quadratic:0.3",
         "--noise",
-        "0.05",
+        noise,
         "--seed",
         seed,
     ]);
     assert!(o.status.success(), "{}", common::stderr(&o));
     let loo = leave_out(&db, camera, dir.path());
     let run = |extra: &[&str], out: &str| {
-        let mut args = vec!["lvf", "calibrate", "--axis", "x", "--lamp", "cfl", "--out"];
+        let mut args = vec!["lvf", "calibrate", "--axis", "x", "--lamp", lamp, "--out"];
         let out_path = p(out);
-        let image = p("cfl.tiff");
+        let image = p("lamp.tiff");
         args.push(&out_path);
         args.push(&image);
         args.extend_from_slice(extra);
@@ -102,7 +106,9 @@ fn without_and_with_database(
 /// CFL bound where the fit without curves misses it by more than 0.3 nm.
 #[test]
 fn a_sibling_sensor_in_the_database_draws_the_continuum_when_the_curves_are_unknown() {
-    let Some((without, with, err, truth)) = without_and_with_database("SONY NEX-5N", "1") else {
+    let Some((without, with, err, truth)) =
+        without_and_with_database("SONY NEX-5N", "cfl", "0.05", "1")
+    else {
         return;
     };
     let e0 = common::lvf_map_errors(&without, &truth);
@@ -132,13 +138,48 @@ fn a_sibling_sensor_in_the_database_draws_the_continuum_when_the_curves_are_unkn
         err.contains("no --camera: the lamp lines' colours match 'Pentax K-5'"),
         "{err}"
     );
+    // the camera is not the image's: the fit without curves counts in σ
+    let d = cd["without_curves_minus_chosen_nm_at_400_700"]
+        .as_array()
+        .unwrap();
+    for (k, s) in ["sigma_systematic_nm_at_400", "sigma_systematic_nm_at_700"]
+        .iter()
+        .enumerate()
+    {
+        assert!(
+            with[s].as_f64().unwrap() >= d[k].as_f64().unwrap().abs(),
+            "{cd}"
+        );
+    }
+}
+
+/// Where the fit without curves already meets `--sigma-hint` (the NEX-5N's Hg at 1 % noise:
+/// σ ≈ 0.19 nm at 700 nm), the database is not consulted: the same map, a note, no fit with a
+/// foreign camera's curves (a sibling's cost there 0.1–0.2 nm, docs/performance.md).
+#[test]
+fn the_database_is_not_consulted_where_the_fit_without_curves_meets_the_sigma_hint() {
+    let Some((without, with, err, _)) = without_and_with_database("SONY NEX-5N", "hg", "0.01", "1")
+    else {
+        return;
+    };
+    let cd = &with["diagnostics"]["camera_database"];
+    assert_eq!(cd["consulted"], false, "{cd}");
+    assert!(
+        cd["chosen"].is_null() && cd["tried"].as_array().unwrap().is_empty(),
+        "{cd}"
+    );
+    assert_eq!(with["map"]["coefficients"], without["map"]["coefficients"]);
+    assert_eq!(with["sigma_nm_at_700"], without["sigma_nm_at_700"]);
+    assert!(err.contains("--camera-database not consulted"), "{err}");
 }
 
 /// The Canon 5D Mark II's CFL at 5 % noise, the 5D Mark II left out: no other Canon's curves
 /// pass the colour check, so the fit without curves is kept, unchanged, and a warning says so.
 #[test]
 fn no_camera_passing_the_colour_check_keeps_the_fit_without_curves() {
-    let Some((without, with, err, _)) = without_and_with_database("Canon 5DMarkII", "1") else {
+    let Some((without, with, err, _)) =
+        without_and_with_database("Canon 5DMarkII", "cfl", "0.05", "1")
+    else {
         return;
     };
     let cd = &with["diagnostics"]["camera_database"];

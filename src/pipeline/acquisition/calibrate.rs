@@ -305,10 +305,16 @@ pub const DATABASE_TRIES: usize = 3;
 /// [`DATABASE_TRIES`] best are fitted with their curves, and of those whose lines' colours then
 /// match as closely as the image's own curves do (misfit ≤
 /// [`crate::lvf::line_colour::MISFIT_NEAR`], not merely within `MISFIT_MAX`) the one with the
-/// smallest misfit is kept. None matching: `without` is kept. Measured (docs/performance.md,
+/// smallest misfit is kept, if its shared continuum spectrum was chosen (otherwise the curves
+/// changed only the noise weights). None such: `without` is kept. Measured (docs/performance.md,
 /// issue 12, `scripts/bench/lvf_camera_database.py`): curves in the near zone — the same model
 /// measured elsewhere, a sibling — moved a CFL's 700 nm by 0.6–0.7 nm at 5 % noise where the fit
-/// without curves was within 0.12 nm, so only a clean match is used. The colours in a fit without curves are rough (each
+/// without curves was within 0.12 nm, so only a clean match is used. The database is consulted
+/// only when the fit without curves misses the accuracy the user asked for (σ at 400 or 700 nm
+/// over `opts.sigma_hint_nm`, `--sigma-hint`): a sibling's curves bias the map by 0.1–0.4 nm,
+/// which is no gain where the fit without curves is already that good. A camera used is not the
+/// image's, so the fit without curves counts in σ's model-choice systematic (the larger of the
+/// two at 400 and 700 nm). The colours in a fit without curves are rough (each
 /// channel's continuum trades with its lines: misfits 0.05–0.1 for cameras that pass at
 /// ≤ 0.01 with curves), so they only rank, and the check with curves decides. Returns the
 /// calibration kept and `diagnostics.camera_database`.
@@ -323,6 +329,24 @@ pub fn pick_database_camera(
     fit: &dyn Fn(&FitOptions) -> Result<LvfCalibration>,
     notify: &mut dyn FnMut(String),
 ) -> Result<(LvfCalibration, serde_json::Value)> {
+    let hint = opts.sigma_hint_nm;
+    if without.sigma_nm_at_400.max(without.sigma_nm_at_700) <= hint {
+        notify(format!(
+            "note: --camera-database not consulted: the fit without curves has σ {:.3} / {:.3} nm at 400 / 700 nm, within --sigma-hint {hint} nm",
+            without.sigma_nm_at_400, without.sigma_nm_at_700
+        ));
+        let report = serde_json::json!({
+            "database": database,
+            "cameras": cameras.len(),
+            "consulted": false,
+            "sigma_hint_nm": hint,
+            "ranked": [],
+            "tried": [],
+            "chosen": null,
+            "note": "not consulted: the fit without curves meets --sigma-hint at 400 and 700 nm",
+        });
+        return Ok((without, report));
+    }
     let nm: Vec<f64> = without.lines.iter().map(|l| l.nm).collect();
     let amp: Vec<[f64; 3]> = without.lines.iter().map(|l| l.amplitude).collect();
     let mut ranked: Vec<(f64, &str, CameraResponse)> = Vec::new();
@@ -356,36 +380,64 @@ pub fn pick_database_camera(
         let misfit = cc["misfit"].as_f64();
         let consistent = cc["consistent"].as_bool() == Some(true);
         let matches = consistent && misfit.is_some_and(|m| m <= MISFIT_NEAR);
+        // curves that drew nothing (the shared spectrum not chosen) only changed the weights
+        let shared = cal
+            .background
+            .as_ref()
+            .is_some_and(|b| b.shared_spectrum.is_some());
         tried.push(serde_json::json!({
             "camera": name,
             "misfit_without_curves": m0,
             "misfit": misfit,
             "consistent": consistent,
             "matches": matches,
+            "shared_spectrum_chosen": shared,
         }));
-        if let (true, Some(m)) = (matches, misfit) {
+        if let (true, true, Some(m)) = (matches, shared, misfit) {
             if best.as_ref().is_none_or(|b| m < b.0) {
                 best = Some((m, name, cal));
             }
         }
     }
     let chosen = best.as_ref().map(|b| b.1.to_string());
+    // the fit without curves at the chosen map's 400 / 700 nm positions, minus 400 / 700
+    let without_at = best.as_ref().map(|(_, _, cal)| {
+        [400.0, 700.0].map(|nm| {
+            cal.map
+                .inverse(nm)
+                .map_or(0.0, |px| without.map.eval(px) - nm)
+        })
+    });
     let report = serde_json::json!({
         "database": database,
         "cameras": cameras.len(),
+        "consulted": true,
+        "sigma_hint_nm": hint,
+        "without_curves_minus_chosen_nm_at_400_700": without_at,
         "ranked": ranking,
         "tried": tried,
         "chosen": chosen,
         "misfit_max": MISFIT_NEAR,
-        "note": "no --camera: every camera of the database ranked by the misfit of the lamp lines' colours in the fit without curves (rough: each channel's continuum trades with its lines), the best few fitted with their curves, and of those whose lines' colours then match as closely as an image's own curves do (misfit <= misfit_max, diagnostics.camera_check) the smallest misfit kept; none matching: the fit without curves. A database camera is not yours: where its curves differ from your camera's the map can move (σ counts the choice of continuum model, not of camera)",
+        "note": "no --camera: every camera of the database ranked by the misfit of the lamp lines' colours in the fit without curves (rough: each channel's continuum trades with its lines), the best few fitted with their curves, and of those whose lines' colours then match as closely as an image's own curves do (misfit <= misfit_max, diagnostics.camera_check) and whose shared continuum spectrum was chosen the smallest misfit kept; none such: the fit without curves. Consulted only when the fit without curves has σ over sigma_hint_nm at 400 or 700 nm. A database camera is not yours: where its curves differ from your camera's the map moves, so the fit without curves counts in the chosen map's model-choice systematic (without_curves_minus_chosen_nm_at_400_700)",
     });
     match best {
         Some((m, name, mut cal)) => {
+            let d = without_at.unwrap_or([0.0; 2]);
+            cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(d[0].abs());
+            cal.sigma_systematic_nm_at_700 = cal.sigma_systematic_nm_at_700.max(d[1].abs());
+            cal.sigma_nm_at_400 = cal
+                .sigma_statistical_nm_at_400
+                .hypot(cal.sigma_systematic_nm_at_400);
+            cal.sigma_nm_at_700 = cal
+                .sigma_statistical_nm_at_700
+                .hypot(cal.sigma_systematic_nm_at_700);
             cal.warnings.insert(
                 0,
                 format!(
-                    "no --camera: the lamp lines' colours match '{name}' of {database} best (misfit {m:.3} ≤ {:.3}); its curves draw the continuum spectrum shared by the three channels. A database camera is not yours: where its curves differ the map can move by more than σ says (the Nikon D3's curves on a D700 image: up to 0.24 nm at 700 nm); give your camera's own curves with --camera when you have them",
-                    MISFIT_NEAR
+                    "no --camera: the lamp lines' colours match '{name}' of {database} best (misfit {m:.3} ≤ {:.3}); its curves draw the continuum spectrum shared by the three channels. A database camera is not yours: where its curves differ the map moves (a sibling's: 0.1–0.4 nm at 700 nm), so σ counts the fit without curves ({:+.3} / {:+.3} nm from this map at 400 / 700 nm); give your camera's own curves with --camera when you have them",
+                    MISFIT_NEAR,
+                    d[0],
+                    d[1]
                 ),
             );
             Ok((cal, report))
@@ -398,7 +450,7 @@ pub fn pick_database_camera(
             cal.warnings.insert(
                 0,
                 format!(
-                    "--camera-database: no camera of {database} matches the lamp lines' colours with its curves to misfit {MISFIT_NEAR} ({n_try} tried, the closest by colour {best_tried}; diagnostics.camera_database): calibrated without camera curves"
+                    "--camera-database: no camera of {database} matches the lamp lines' colours with its curves to misfit {MISFIT_NEAR} and draws the continuum with them ({n_try} tried, the closest by colour {best_tried}; diagnostics.camera_database): calibrated without camera curves"
                 ),
             );
             Ok((cal, report))

@@ -180,13 +180,14 @@ pub struct CalibrateArgs {
     pub camera: Option<PathBuf>,
     /// Without your camera's curves: a camera database (long CSV camera,wavelength_nm,r,g,b such
     /// as ../shared/data/camera/jiang2013_camspec_all_cameras_long.csv, or Jiang et al.'s
-    /// camspec_database.txt). The lamp is fitted without curves, the database's cameras ranked by
-    /// the lines' colours, the three best fitted with their curves, and the one whose curves
-    /// then match the colours as closely as an image's own curves do (misfit ≤ 0.015) is used
-    /// as --camera would be (a warning names it; diagnostics.camera_database); none matching,
-    /// the fit without curves is kept. About four fits' time. A database camera is not yours:
-    /// it helps when the database holds your camera's sensor (a CFL at 5 % noise), and costs a
-    /// little where the fit without curves is already good (docs/capture.md).
+    /// camspec_database.txt). The lamp is fitted without curves; only when that fit's σ at 400
+    /// or 700 nm exceeds --sigma-hint, the database's cameras are ranked by the lines' colours,
+    /// the three best fitted with their curves, and the one whose curves then match the colours
+    /// as closely as an image's own curves do (misfit ≤ 0.015) is used as --camera would be,
+    /// with the fit without curves counted in σ (a warning names the camera;
+    /// diagnostics.camera_database); none matching, the fit without curves is kept. Up to four
+    /// fits' time. A database camera is not yours: it helps when the database holds your
+    /// camera's sensor or a close sibling (docs/capture.md).
     #[arg(long, conflicts_with = "camera")]
     pub camera_database: Option<PathBuf>,
 }
