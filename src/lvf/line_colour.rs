@@ -103,6 +103,28 @@ impl LineColourCheck {
             .join(", ")
     }
 
+    /// The median over the judged lines of each line's own misfit √(‖A − s·P‖² / ‖A‖²): robust to
+    /// a few lines whose amplitudes went wrong (in a fit without the curves a channel's continuum
+    /// can take part of a line's light), so it ranks cameras where `misfit`, weighted by the
+    /// brightest lines, is led by them. 0 without judged lines.
+    pub fn median_line_misfit(&self) -> f64 {
+        let mut m: Vec<f64> = self
+            .lines
+            .iter()
+            .map(|j| j.relative_misfit_squared().sqrt())
+            .collect();
+        if m.is_empty() {
+            return 0.0;
+        }
+        m.sort_by(f64::total_cmp);
+        let k = m.len() / 2;
+        if m.len() % 2 == 1 {
+            m[k]
+        } else {
+            0.5 * (m[k - 1] + m[k])
+        }
+    }
+
     /// True when the curves are judged not to be the image's ([`MISFIT_MAX`]).
     pub fn inconsistent(&self) -> bool {
         self.misfit > MISFIT_MAX
@@ -278,6 +300,36 @@ mod tests {
         assert!(!at(0.5 * MISFIT_NEAR).near() && !at(0.5 * MISFIT_NEAR).inconsistent());
         assert!(at(0.5 * (MISFIT_NEAR + MISFIT_MAX)).near());
         assert!(at(1.01 * MISFIT_MAX).inconsistent() && !at(1.01 * MISFIT_MAX).near());
+    }
+
+    /// The median of the lines' own misfits ignores a minority of lines gone wrong, where the
+    /// amplitude-weighted misfit is led by them when they are bright.
+    #[test]
+    fn the_median_line_misfit_ignores_a_few_bright_lines_gone_wrong() {
+        let line = |nm: f64, observed: [f64; 3], predicted: [f64; 3]| JudgedLine {
+            nm,
+            with_nm: vec![nm],
+            observed,
+            predicted,
+        };
+        let good = [1.0, 2.0, 0.5];
+        let c = LineColourCheck {
+            misfit: 0.0,
+            lines: vec![
+                line(436.0, good, good),
+                line(487.7, good, [1.0, 2.0, 0.55]),
+                line(546.1, good, good),
+                line(611.6, [10.0, 1.0, 5.0], [10.0, 1.0, 0.0]),
+            ],
+        };
+        // per line: 0, 0.05/‖good‖ = 0.0218, 0, 5/√126 = 0.445; median of four
+        let m = c.median_line_misfit();
+        assert!((m - 0.5 * 0.05 / 5.25f64.sqrt()).abs() < 1e-12, "{m}");
+        let empty = LineColourCheck {
+            misfit: 0.0,
+            lines: vec![],
+        };
+        assert_eq!(empty.median_line_misfit(), 0.0);
     }
 
     #[test]

@@ -301,7 +301,10 @@ pub const DATABASE_TRIES: usize = 3;
 
 /// `--camera-database`: the camera whose curves the lamp lines' colours ask for, when the user
 /// has none of their own. The lines fitted without curves (`without`) rank every camera of the
-/// database by the misfit of their colours ([`crate::lvf::line_colour::check`]); the
+/// database by the median of the lines' own colour misfits
+/// ([`crate::lvf::line_colour::LineColourCheck::median_line_misfit`]; the amplitude-weighted
+/// misfit put the image's sibling 5th–15th of 27 on three D700 images under a flat continuum,
+/// led by a few lines whose amplitude a channel's continuum had taken); the
 /// [`DATABASE_TRIES`] best are fitted with their curves, and of those whose lines' colours then
 /// match as closely as the image's own curves do (misfit ≤
 /// [`crate::lvf::line_colour::MISFIT_NEAR`], not merely within `MISFIT_MAX`) the one with the
@@ -349,26 +352,33 @@ pub fn pick_database_camera(
     }
     let nm: Vec<f64> = without.lines.iter().map(|l| l.nm).collect();
     let amp: Vec<[f64; 3]> = without.lines.iter().map(|l| l.amplitude).collect();
-    let mut ranked: Vec<(f64, &str, CameraResponse)> = Vec::new();
+    // (median line misfit, misfit, name, curves)
+    let mut ranked: Vec<(f64, f64, &str, CameraResponse)> = Vec::new();
     for (name, cam) in cameras {
         // a table too short for the shared spectrum is no candidate
         let Ok(resp) = CameraResponse::from_curves(&cam.curves, &cam.source) else {
             continue;
         };
         if let Some(c) = crate::lvf::line_colour::check(&resp, &nm, &amp, without.fwhm_nm) {
-            ranked.push((c.misfit, name, resp));
+            ranked.push((c.median_line_misfit(), c.misfit, name, resp));
         }
     }
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
     let ranking: Vec<serde_json::Value> = ranked
         .iter()
         .take(2 * DATABASE_TRIES)
-        .map(|(m, name, _)| serde_json::json!({"camera": name, "misfit_without_curves": m}))
+        .map(|(med, m, name, _)| {
+            serde_json::json!({
+                "camera": name,
+                "median_line_misfit_without_curves": med,
+                "misfit_without_curves": m,
+            })
+        })
         .collect();
     let n_try = ranked.len().min(DATABASE_TRIES);
     let mut tried = Vec::new();
     let mut best: Option<(f64, &str, LvfCalibration)> = None;
-    for (k, (m0, name, resp)) in ranked.iter().take(n_try).enumerate() {
+    for (k, (med0, m0, name, resp)) in ranked.iter().take(n_try).enumerate() {
         notify(format!(
             "note: --camera-database: fitting with the curves of '{name}' ({}/{n_try})",
             k + 1
@@ -387,6 +397,7 @@ pub fn pick_database_camera(
             .is_some_and(|b| b.shared_spectrum.is_some());
         tried.push(serde_json::json!({
             "camera": name,
+            "median_line_misfit_without_curves": med0,
             "misfit_without_curves": m0,
             "misfit": misfit,
             "consistent": consistent,
@@ -418,7 +429,7 @@ pub fn pick_database_camera(
         "tried": tried,
         "chosen": chosen,
         "misfit_max": MISFIT_NEAR,
-        "note": "no --camera: every camera of the database ranked by the misfit of the lamp lines' colours in the fit without curves (rough: each channel's continuum trades with its lines), the best few fitted with their curves, and of those whose lines' colours then match as closely as an image's own curves do (misfit <= misfit_max, diagnostics.camera_check) and whose shared continuum spectrum was chosen the smallest misfit kept; none such: the fit without curves. Consulted only when the fit without curves has σ over sigma_hint_nm at 400 or 700 nm. A database camera is not yours: where its curves differ from your camera's the map moves, so the fit without curves counts in the chosen map's model-choice systematic (without_curves_minus_chosen_nm_at_400_700)",
+        "note": "no --camera: every camera of the database ranked by the median of the lamp lines' own colour misfits in the fit without curves (rough: each channel's continuum trades with its lines), the best few fitted with their curves, and of those whose lines' colours then match as closely as an image's own curves do (misfit <= misfit_max, diagnostics.camera_check) and whose shared continuum spectrum was chosen the smallest misfit kept; none such: the fit without curves. Consulted only when the fit without curves has σ over sigma_hint_nm at 400 or 700 nm. A database camera is not yours: where its curves differ from your camera's the map moves, so the fit without curves counts in the chosen map's model-choice systematic (without_curves_minus_chosen_nm_at_400_700)",
     });
     match best {
         Some((m, name, mut cal)) => {
@@ -446,7 +457,7 @@ pub fn pick_database_camera(
             let mut cal = without;
             let best_tried = ranked
                 .first()
-                .map_or("none".to_string(), |r| format!("'{}'", r.1));
+                .map_or("none".to_string(), |r| format!("'{}'", r.2));
             cal.warnings.insert(
                 0,
                 format!(
