@@ -156,12 +156,9 @@ fn the_same_camera_measured_elsewhere_passes_and_a_sibling_model_does_not() {
 /// such warning.
 #[test]
 fn the_cli_warns_on_another_camera_s_curves_and_reports_the_check_in_lvf_json() {
-    if common::jiang::database("the line-colour CLI check").is_none() {
+    let Some(db) = common::jiang::database_path("the line-colour CLI check") else {
         return;
-    }
-    let db = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/camera")
-        .join(common::jiang::DATABASE);
+    };
     let db = db.to_str().unwrap();
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| common::p(dir.path(), n);

@@ -9,16 +9,6 @@
 mod common;
 use common::tolerances::lvf_camera_database::*;
 
-/// The database's path, or None after a skip message.
-fn database_path(what: &str) -> Option<std::path::PathBuf> {
-    common::jiang::database(what)?;
-    Some(
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../shared/data/camera")
-            .join(common::jiang::DATABASE),
-    )
-}
-
 /// The database without `camera`'s rows, written to `dir`.
 fn leave_out(db: &std::path::Path, camera: &str, dir: &std::path::Path) -> String {
     let text = std::fs::read_to_string(db).unwrap();
@@ -50,7 +40,7 @@ fn without_and_with_database(
     String,
     serde_json::Value,
 )> {
-    let db = database_path("the --camera-database checks")?;
+    let db = common::jiang::database_path("the --camera-database checks")?;
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| common::p(dir.path(), n);
     let render = format!("{}:{camera}", db.display());
@@ -202,15 +192,7 @@ fn no_camera_passing_the_colour_check_keeps_the_fit_without_curves() {
 fn bad_camera_databases_are_refused_naming_the_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| common::p(dir.path(), n);
-    let o = common::lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--out",
-        &p("hg.tiff"),
-        "--truth",
-        &p("truth.json"),
-    ]);
-    assert!(o.status.success(), "{}", common::stderr(&o));
+    common::synth_default_lamp(dir.path(), "4");
     let good = common::write(
         dir.path(),
         "db.csv",

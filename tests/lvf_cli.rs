@@ -6,27 +6,11 @@ mod common;
 use common::tolerances::lvf_cli::*;
 use common::{lumifit, stderr};
 
-/// `synth lvf-hg` with its defaults (seed 4) into `dir`: `hg.tiff` and its `truth.json`.
-fn synth_default_lamp(dir: &std::path::Path) {
-    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
-    let o = lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--out",
-        &p("hg.tiff"),
-        "--truth",
-        &p("truth.json"),
-        "--seed",
-        "4",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-}
-
 #[test]
 fn calibrate_writes_the_lvf_json_contract_and_recovers_the_synthetic_map() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
-    synth_default_lamp(dir.path());
+    common::synth_default_lamp(dir.path(), "4");
     let o = lumifit(&[
         "lvf",
         "calibrate",
@@ -436,7 +420,7 @@ fn a_passband_shape_rendered_by_synth_is_fitted_by_calibrate_and_carried_by_lvf_
 fn a_mercury_table_off_the_nist_wavelengths_is_warned_line_by_line() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
-    synth_default_lamp(dir.path());
+    common::synth_default_lamp(dir.path(), "4");
     std::fs::write(
         p("hg_rounded.csv"),
         "wavelength_nm,relative_power\n405,0.40\n408,0.04\n436,1.00\n546,0.90\n577,0.20\n579,0.22\n",

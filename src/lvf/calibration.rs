@@ -356,13 +356,18 @@ impl LvfCalibration {
         }
         self.sigma_statistical_nm_at_400 = self.map.sigma_at(bands[0].px);
         self.sigma_statistical_nm_at_700 = self.map.sigma_at(bands[n - 1].px);
+        self.combine_sigma();
+        self.bands = bands;
+        Ok(())
+    }
+
+    /// `sigma_nm_at_400/700` = √(statistical² + systematic²) from the parts.
+    pub fn combine_sigma(&mut self) {
         self.sigma_nm_at_400 = self
             .sigma_statistical_nm_at_400
             .hypot(self.sigma_systematic_nm_at_400);
         self.sigma_nm_at_700 = self
             .sigma_statistical_nm_at_700
             .hypot(self.sigma_systematic_nm_at_700);
-        self.bands = bands;
-        Ok(())
     }
 }

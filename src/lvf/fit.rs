@@ -1690,15 +1690,19 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
     } = fit_candidates(&candidates, &full, &starts, 0, ln_n);
     // The camera's curves checked against the lines' colours before anything leans on the
     // shared continuum drawn through them.
-    let mut camera_check = opts.camera.as_ref().and_then(|cam| {
-        check_camera_colours(
-            cam,
-            &mut chosen_pr,
-            &mut chosen_fit,
-            &mut best_bic,
-            &mut others,
-        )
-    });
+    let mut camera_check = opts
+        .camera
+        .as_ref()
+        .and_then(|cam| judge_camera_colours(cam, &chosen_pr, &chosen_fit, best_bic, &others))
+        .map(|check| {
+            apply_camera_verdict(
+                check,
+                &mut chosen_pr,
+                &mut chosen_fit,
+                &mut best_bic,
+                &mut others,
+            )
+        });
     // A strong line the lamp list lacks would bias every candidate: search the chosen fit's
     // residual, and when lines are found, choose the background again with them in the model.
     // Only when the background is chosen (`Auto`): a requested model is fitted as asked.
@@ -2164,7 +2168,7 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
     // in u that agrees with the shared spectrum's biased map (σ unchanged, 0.23 for +0.585 nm).
     let near_alternative = camera_check
         .as_ref()
-        .filter(|cc| cc.check.near() && pr.terms.shared_intervals > 0)
+        .filter(|cc| cc.check.near() && is_shared(&pr))
         .and_then(|_| {
             let best = |family: &dyn Fn(&BackgroundTerms) -> bool| {
                 others
@@ -2809,7 +2813,7 @@ fn lambda_and_variance(pr: &Problem, fit: &Fitted, us: &[f64]) -> Option<Vec<(f6
     )
 }
 
-/// What [`check_camera_colours`] found: the check, and the shared-continuum candidates it
+/// What the `--camera` check found ([`judge_camera_colours`], [`apply_camera_verdict`]): the check, and the shared-continuum candidates it
 /// dropped (name, BIC) when it judged the curves not the image's.
 struct CameraColours {
     check: crate::lvf::line_colour::LineColourCheck,
@@ -2818,25 +2822,8 @@ struct CameraColours {
 }
 
 /// The `--camera` curves judged by the lines' colours ([`crate::lvf::line_colour`]) in the best
-/// (by BIC) candidate whose continuum is shared through them. When they are not the image's,
-/// every shared-continuum candidate is dropped (neither chosen nor counted in the model-choice
-/// systematic) and, if one was chosen, the best remaining candidate by BIC takes its place.
-/// None when there is no shared-continuum candidate or no line to judge.
-fn check_camera_colours<'a>(
-    cam: &CameraResponse,
-    chosen_pr: &mut Problem<'a>,
-    chosen_fit: &mut Fitted,
-    best_bic: &mut f64,
-    others: &mut Vec<(Problem<'a>, Fitted, f64)>,
-) -> Option<CameraColours> {
-    let check = judge_camera_colours(cam, chosen_pr, chosen_fit, *best_bic, others)?;
-    Some(apply_camera_verdict(
-        check, chosen_pr, chosen_fit, best_bic, others,
-    ))
-}
-
-/// The lines' colours in the best (by BIC) shared-continuum candidate against `cam`; None when
-/// there is no such candidate or no line to judge.
+/// (by BIC) candidate whose continuum is shared through them; None when there is no such
+/// candidate or no line to judge.
 fn judge_camera_colours(
     cam: &CameraResponse,
     chosen_pr: &Problem,
@@ -2856,12 +2843,14 @@ fn judge_camera_colours(
     crate::lvf::line_colour::check(cam, nm, &amp, spr.fwhm(&sfit.theta))
 }
 
+/// True for a candidate whose continuum spectrum is shared through the camera's curves.
 fn is_shared(p: &Problem) -> bool {
     p.terms.shared_intervals > 0
 }
 
 /// Acts on a verdict of the curves: when they are not the image's, every shared-continuum
-/// candidate is dropped and, if one was chosen, the best remaining candidate takes its place.
+/// candidate is dropped (neither chosen nor counted in the model-choice systematic) and, if one
+/// was chosen, the best remaining candidate by BIC takes its place.
 fn apply_camera_verdict<'a>(
     check: crate::lvf::line_colour::LineColourCheck,
     chosen_pr: &mut Problem<'a>,
@@ -2869,7 +2858,6 @@ fn apply_camera_verdict<'a>(
     best_bic: &mut f64,
     others: &mut Vec<(Problem<'a>, Fitted, f64)>,
 ) -> CameraColours {
-    let shared = is_shared;
     if !check.inconsistent() {
         return CameraColours {
             check,
@@ -2879,12 +2867,12 @@ fn apply_camera_verdict<'a>(
     }
     let mut dropped: Vec<(String, f64)> = others
         .iter()
-        .filter(|(p, _, _)| shared(p))
+        .filter(|(p, _, _)| is_shared(p))
         .map(|(p, _, b)| (p.terms.name(), *b))
         .collect();
-    others.retain(|(p, _, _)| !shared(p));
+    others.retain(|(p, _, _)| !is_shared(p));
     let mut chosen_replaced = None;
-    if shared(chosen_pr) {
+    if is_shared(chosen_pr) {
         let next = (0..others.len()).min_by(|&a, &b| others[a].2.total_cmp(&others[b].2));
         if let Some(k) = next {
             let (p, f, b) = others.swap_remove(k);

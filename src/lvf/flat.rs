@@ -444,14 +444,7 @@ pub fn calibrate_with_flat(
     let add = |s: f64, d: f64| (s * s + d * d).sqrt();
     cal.sigma_systematic_nm_at_400 = add(cal.sigma_systematic_nm_at_400, last_change[0]);
     cal.sigma_systematic_nm_at_700 = add(cal.sigma_systematic_nm_at_700, last_change[1]);
-    cal.sigma_nm_at_400 = add(
-        cal.sigma_statistical_nm_at_400,
-        cal.sigma_systematic_nm_at_400,
-    );
-    cal.sigma_nm_at_700 = add(
-        cal.sigma_statistical_nm_at_700,
-        cal.sigma_systematic_nm_at_700,
-    );
+    cal.combine_sigma();
     cal.diagnostics["flat_field"] = serde_json::json!({
         "file": flat.source,
         "alternations": iterations,

@@ -12,11 +12,22 @@ pub const DATABASE: &str = "jiang2013_camspec_all_cameras_long.csv";
 /// The three cameras the LVF tests run over.
 pub const CAMERAS: [&str; 3] = ["Canon 5DMarkII", "Nikon D700", "SONY NEX-5N"];
 
+/// Where the long-format table is (`../shared/data/camera/`, read in place).
+pub fn path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/camera")
+        .join(DATABASE)
+}
+
+/// The database's path for the CLI (`--camera PATH:NAME`, `--camera-database PATH`), or `None`
+/// after the skip message of [`database`].
+pub fn database_path(what: &str) -> Option<PathBuf> {
+    database(what).map(|_| path())
+}
+
 /// The database's bytes, or `None` after a skip message naming `what` did not run.
 pub fn database(what: &str) -> Option<Vec<u8>> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/camera")
-        .join(DATABASE);
+    let p = path();
     match std::fs::read(&p) {
         Ok(b) => Some(b),
         Err(_) => {

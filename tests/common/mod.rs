@@ -55,6 +55,21 @@ pub fn p(dir: &Path, name: &str) -> String {
     dir.join(name).to_string_lossy().to_string()
 }
 
+/// `synth lvf-hg` with its defaults and `seed` into `dir`: `hg.tiff` and its `truth.json`.
+pub fn synth_default_lamp(dir: &Path, seed: &str) {
+    let o = lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p(dir, "hg.tiff"),
+        "--truth",
+        &p(dir, "truth.json"),
+        "--seed",
+        seed,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// A JSON file read and parsed (the test fails naming it when it cannot be).
 pub fn read_json(path: impl AsRef<Path>) -> serde_json::Value {
     let p = path.as_ref();

@@ -436,12 +436,7 @@ pub fn pick_database_camera(
             let d = without_at.unwrap_or([0.0; 2]);
             cal.sigma_systematic_nm_at_400 = cal.sigma_systematic_nm_at_400.max(d[0].abs());
             cal.sigma_systematic_nm_at_700 = cal.sigma_systematic_nm_at_700.max(d[1].abs());
-            cal.sigma_nm_at_400 = cal
-                .sigma_statistical_nm_at_400
-                .hypot(cal.sigma_systematic_nm_at_400);
-            cal.sigma_nm_at_700 = cal
-                .sigma_statistical_nm_at_700
-                .hypot(cal.sigma_systematic_nm_at_700);
+            cal.combine_sigma();
             cal.warnings.insert(
                 0,
                 format!(
