@@ -295,7 +295,10 @@ fn without_the_camera_a_biased_spline_in_u_gives_way_to_the_passband_continuum()
     // σ here is far above 0.3 nm: the user is told why and what would narrow it
     let hint = sigma_hint(&cal).unwrap_or_else(|| panic!("no σ hint: {:?}", cal.warnings));
     assert!(
-        hint.contains("--camera") && hint.contains("mercury lamp") && hint.contains(&bg.model),
+        hint.contains("--camera")
+            && hint.contains("--camera-database")
+            && hint.contains("mercury lamp")
+            && hint.contains(&bg.model),
         "{hint}"
     );
     // the accuracy is the user's: asked for 2 nm, σ here (under 2 nm) draws no hint

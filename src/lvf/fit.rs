@@ -2556,7 +2556,7 @@ fn calibrate_shape(profile: &Profile, lamp: &Lamp, opts: &FitOptions) -> Result<
         && sigma_ends.iter().any(|s| *s > opts.sigma_hint_nm)
     {
         cal.warnings.push(format!(
-            "σ at 400 / 700 nm is {:.2} / {:.2} nm (statistical {:.2} / {:.2}, systematic {:.2} / {:.2}; --sigma-hint {} nm): the continuum under the lines ({}) is drawn per channel without the camera's curves and trades with the lines; give the camera's sensitivities (--camera) so that one continuum spectrum is shared by the three channels{}",
+            "σ at 400 / 700 nm is {:.2} / {:.2} nm (statistical {:.2} / {:.2}, systematic {:.2} / {:.2}; --sigma-hint {} nm): the continuum under the lines ({}) is drawn per channel without the camera's curves and trades with the lines; give the camera's sensitivities (--camera) so that one continuum spectrum is shared by the three channels, or without them a database of measured cameras (--camera-database) whose lines' colours may match one{}",
             cal.sigma_nm_at_400,
             cal.sigma_nm_at_700,
             cal.sigma_statistical_nm_at_400,
