@@ -144,6 +144,78 @@ fn out_of_range_knot_and_smoothness_lists_exit_2_naming_the_flag() {
     }
 }
 
+/// `synth lvf-hg --pedestal` out of [0, 0.2) is refused naming the flag, exit 2, nothing
+/// written; within it, the level is under every pixel (the darkest pixel of a noise-free image
+/// is the pedestal) and `lvf calibrate` reports it with the fall-off.
+#[test]
+fn synth_pedestal_is_checked_and_lvf_calibrate_reports_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| common::p(dir.path(), n);
+    for bad in ["-0.01", "0.2", "NaN"] {
+        let o = lumifit(&[
+            "synth",
+            "lvf-hg",
+            "--size",
+            "300x40",
+            "--out",
+            &p("hg.tiff"),
+            "--truth",
+            &p("truth.json"),
+            &format!("--pedestal={bad}"),
+        ]);
+        common::assert_rejected(&o, &["--pedestal", "[0, 0.2)"]);
+        assert!(!dir.path().join("hg.tiff").exists() && !dir.path().join("truth.json").exists());
+    }
+    let o = lumifit(&[
+        "synth",
+        "lvf-hg",
+        "--out",
+        &p("hg.tiff"),
+        "--truth",
+        &p("truth.json"),
+        "--lamp",
+        "cfl",
+        "--noise",
+        "0",
+        "--vignetting",
+        "0.3",
+        "--continuum",
+        "0.1",
+        "--continuum-spectrum",
+        "cfl",
+        "--pedestal",
+        "0.04",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(p("hg.tiff")).unwrap().to_rgb16();
+    let darkest = img.pixels().flat_map(|px| px.0).min().unwrap();
+    let darkest = darkest as f64 / 65535.0;
+    assert!(
+        (0.04 - 1e-4..0.045).contains(&darkest),
+        "darkest pixel {darkest}"
+    );
+    let o = lumifit(&[
+        "lvf",
+        "calibrate",
+        &p("hg.tiff"),
+        "--axis",
+        "x",
+        "--lamp",
+        "cfl",
+        "--out",
+        &p("lvf.json"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cal = common::read_json(p("lvf.json"));
+    let ped = &cal["background"]["radial_falloff"]["pedestal"];
+    for c in 0..3 {
+        let level = ped[c][0]
+            .as_f64()
+            .unwrap_or_else(|| panic!("no pedestal: {ped}"));
+        assert!((level - 0.04).abs() < 0.004, "channel {c}: {level}");
+    }
+}
+
 /// A bad `--flat-spectrum` is refused naming that flag (it was named `--continuum-spectrum`, the
 /// synthesiser's flag, by both commands), exit 2, nothing written: by `synth lvf-hg --flat-out`
 /// before anything is rendered, and by `lvf calibrate --flat`.

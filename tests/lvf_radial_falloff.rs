@@ -110,3 +110,85 @@ fn a_cfl_under_quadratic_vignetting_reports_a_sigma_that_covers_the_falloffs_bia
         );
     }
 }
+
+/// A level under the image that the lens does not vignette (a black-level residue, flare) dilutes
+/// each strip's ratio by (ȳ − p)/ȳ, most at the ends of the axis where the signal is low: the
+/// fall-off came out 0.88 at the ends instead of 0.71 and a CFL's map moved 0.3–0.4 nm at 700
+/// nm. The strips now estimate the pedestal with the fall-off; this fails before that.
+#[test]
+fn a_black_level_pedestal_is_estimated_with_the_falloff_and_the_cfl_map_stays_within_the_bound() {
+    let Some(db) = common::jiang::database("the pedestal under a vignetted CFL") else {
+        return;
+    };
+    for name in ["Canon 5DMarkII", "Nikon D700", "SONY NEX-5N"] {
+        let base = common::lvf_geometry::spec(
+            Lamp::cfl(),
+            camera(&db, name),
+            0.01,
+            (VignettingShape::Quadratic, 0.3),
+            Some((ContinuumShape::Cfl, 0.10)),
+            1,
+        );
+        let with = lumifit::lvf::LvfSynthSpec {
+            pedestal: 0.04,
+            ..base.clone()
+        };
+        let ends = |s: &lumifit::lvf::LvfSynthSpec| {
+            let (frame, truth) = render_lvf(s).unwrap();
+            let profile = extract_profile(&frame, [0, 0, s.width, s.height], Axis::X).unwrap();
+            let r = estimate_radial_falloff(&profile).unwrap();
+            (r, profile, truth)
+        };
+        let (r0, _, _) = ends(&base);
+        assert!(
+            r0.pedestal.is_none(),
+            "{name}: a pedestal where there is none: {:?}",
+            r0.pedestal
+        );
+        let (r, profile, truth) = ends(&with);
+        let ped = r
+            .pedestal
+            .unwrap_or_else(|| panic!("{name}: the pedestal is not found"));
+        for (c, [level, sigma]) in ped.iter().enumerate() {
+            eprintln!("{name}, channel {c}: pedestal {level:.4} ± {sigma:.4} (truth 0.04)");
+            assert!(
+                (level - 0.04).abs() <= PEDESTAL_K_SIGMA * sigma
+                    && *sigma > 0.0
+                    && *sigma <= PEDESTAL_MAX_REL_SIGMA * 0.04,
+                "{name}, channel {c}: pedestal {level} ± {sigma}"
+            );
+        }
+        for k in 0..2 {
+            assert!(
+                (r.at_ends[k] - r0.at_ends[k]).abs() <= PEDESTAL_AT_ENDS_TOL,
+                "{name}: V at the ends {:?} against {:?} without the pedestal",
+                r.at_ends,
+                r0.at_ends
+            );
+        }
+        let cal = calibrate_whole_profile(&profile, &Lamp::cfl(), &FitOptions::default()).unwrap();
+        let e = [
+            cal.map.eval(truth.px_at_400) - 400.0,
+            cal.map.eval(truth.px_at_700) - 700.0,
+        ];
+        eprintln!(
+            "{name}: pedestal {:?}, V at the ends {:.3} (without it {:.3}), error {:+.3} / {:+.3} nm",
+            ped.map(|p| p[0]),
+            r.at_ends[0],
+            r0.at_ends[0],
+            e[0],
+            e[1]
+        );
+        assert!(
+            e[0].abs().max(e[1].abs()) <= PEDESTAL_CFL_MAX_ERROR_NM,
+            "{name}: {e:?}"
+        );
+        // lvf.json carries it
+        let json = serde_json::to_value(&cal).unwrap();
+        assert!(
+            json["background"]["radial_falloff"]["pedestal"].is_array(),
+            "{}",
+            json["background"]["radial_falloff"]
+        );
+    }
+}

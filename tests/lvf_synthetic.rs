@@ -26,6 +26,7 @@ fn spec(lamp: Lamp, noise: f64, seed: u64) -> LvfSynthSpec {
         vignetting: 0.2,
         vignetting_shape: lumifit::lvf::synth::VignettingShape::Quadratic,
         continuum: None,
+        pedestal: 0.0,
         seed,
     }
 }

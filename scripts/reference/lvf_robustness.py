@@ -96,6 +96,10 @@ CASES = [
     ("hot pixels (200, 0.1-0.5 of full scale)", {"hot": True}, []),
     ("filter along y (case 34 transposed: rotated 3 deg)", {"rotate_deg": 3.0, "transpose": True}, []),
     ("filter along y (case 36 transposed: dust)", {"dust": True, "transpose": True}, []),
+    # a level the lens does not vignette (black-level residue, flare) under a strong fall-off
+    ("black pedestal 5 % of the peak, vignetting 0.3", {"pedestal": 0.04, "vignetting": 0.3}, []),
+    ("black pedestal 5 % of the peak, vignetting 0.3, Nikon D700",
+     {"pedestal": 0.04, "vignetting": 0.3, "camera": "Nikon D700"}, []),
 ]
 
 

@@ -84,7 +84,8 @@ pub fn render_lvf_flat(spec: &LvfSynthSpec, shape: ContinuumShape) -> Result<Rgb
         for x in 0..spec.width {
             let v = vig(x, y);
             for (c, pc) in profile[at(x, y)].iter().enumerate() {
-                let s = noisy_value(pc * v * scale, spec.noise, PEAK, &mut rng).clamp(0.0, 1.0);
+                let s = (noisy_value(pc * v * scale, spec.noise, PEAK, &mut rng) + spec.pedestal)
+                    .clamp(0.0, 1.0);
                 if s >= 1.0 {
                     sat[y * spec.width + x] |= 1 << c;
                 }

@@ -104,6 +104,10 @@ pub struct LvfSynthSpec {
     pub vignetting_shape: VignettingShape,
     /// A broadband continuum under the lines.
     pub continuum: Option<Continuum>,
+    /// A level added to every pixel after the fall-off and the noise, before clipping (fraction
+    /// of full scale; the brightest pixel is 0.8 before it): a black-level residue, or flare
+    /// and stray light that the lens does not vignette. 0 for none.
+    pub pedestal: f64,
     /// Random seed.
     pub seed: u64,
 }
@@ -528,7 +532,8 @@ pub fn render_lvf(spec: &LvfSynthSpec) -> Result<(RgbFrame, LvfTruth)> {
         for x in 0..spec.width {
             let v = vig(x, y);
             for (c, pc) in value_at(x, y).iter().enumerate() {
-                let s = noisy_value(pc * v * scale, spec.noise, PEAK, &mut rng).clamp(0.0, 1.0);
+                let s = (noisy_value(pc * v * scale, spec.noise, PEAK, &mut rng) + spec.pedestal)
+                    .clamp(0.0, 1.0);
                 if s >= 1.0 {
                     sat[y * spec.width + x] |= 1 << c;
                 }

@@ -269,6 +269,7 @@ fn lvf_stage(ctx: &mut Ctx<'_>) -> Result<StageReport> {
             shape: crate::lvf::synth::ContinuumShape::Flat,
             fraction: 0.04,
         }),
+        pedestal: 0.0,
         seed: 1,
     };
     let (frame, _truth) = render_lvf(&spec)?;

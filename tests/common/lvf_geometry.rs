@@ -34,6 +34,7 @@ pub fn spec(
         vignetting: vignetting.1,
         vignetting_shape: vignetting.0,
         continuum: continuum.map(|(shape, fraction)| Continuum { shape, fraction }),
+        pedestal: 0.0,
         seed,
     }
 }

@@ -388,6 +388,18 @@ pub mod lvf_radial_falloff {
     pub const CFL_MIN_FALLOFF_SIGMA_NM: f64 = 0.05;
     /// … and σ at 700 nm covers it within this many σ (the propagated fall-off σ: 0.11 nm).
     pub const CFL_COVERAGE_K: f64 = 2.0;
+    /// A pedestal of 0.04 of full scale (5 % of the brightest pixel) under a CFL with its 10 %
+    /// continuum and a quadratic 0.3 vignetting, 1 % noise, seed 1: estimated per channel within
+    /// this many of its reported σ …
+    pub const PEDESTAL_K_SIGMA: f64 = 3.0;
+    /// … and that σ at most this fraction of the level (the strips do pin it).
+    pub const PEDESTAL_MAX_REL_SIGMA: f64 = 0.25;
+    /// … the fall-off at the profile's ends within this of the same image's without the
+    /// pedestal (V at the ends 0.88 against 0.71 before the pedestal was estimated).
+    pub const PEDESTAL_AT_ENDS_TOL: f64 = 0.02;
+    /// … and the map within issue 12's 0.3 nm for a CFL at 1 % noise (0.32 / 0.40 / 0.36 nm at
+    /// 700 nm on the Canon / D700 / NEX-5N before, 0.07 / 0.22 / 0.09 after).
+    pub const PEDESTAL_CFL_MAX_ERROR_NM: f64 = 0.3;
 }
 
 pub mod lvf_split_prior {

@@ -79,6 +79,10 @@ pub struct SynthPhoto {
     pub truth_json: String,
 }
 
+/// `synth lvf-hg --pedestal` is below this (fraction of full scale): the brightest pixel is 0.8
+/// before the pedestal is added.
+pub const PEDESTAL_MAX: f64 = 0.2;
+
 /// `synth lvf-hg`: a lamp seen through an LVF by a camera.
 #[derive(Debug, Clone)]
 pub struct LampPhotoJob {
@@ -110,6 +114,8 @@ pub struct LampPhotoJob {
     pub continuum: f64,
     /// Spectrum of the continuum: `flat`, `cfl` or `blackbody:K`.
     pub continuum_spectrum: String,
+    /// A level under everything, not vignetted (fraction of full scale; 0: none).
+    pub pedestal: f64,
     /// Also render a matching flat field.
     pub flat: bool,
     /// Spectrum of the flat's source: `flat`, `cfl` or `blackbody:K` (checked even without
@@ -161,6 +167,15 @@ pub fn synth_lamp_photo(job: &LampPhotoJob) -> Result<LampPhotos> {
             format!("{}; expected a fraction ≥ 0", job.continuum),
         ));
     };
+    if !(job.pedestal.is_finite() && (0.0..PEDESTAL_MAX).contains(&job.pedestal)) {
+        return Err(Error::flag(
+            "--pedestal",
+            format!(
+                "{}; expected a fraction of full scale in [0, {PEDESTAL_MAX}) (the brightest pixel is 0.8 before it, so more would saturate it)",
+                job.pedestal
+            ),
+        ));
+    }
     let spec = LvfSynthSpec {
         width,
         height,
@@ -177,6 +192,7 @@ pub fn synth_lamp_photo(job: &LampPhotoJob) -> Result<LampPhotos> {
         vignetting,
         vignetting_shape,
         continuum,
+        pedestal: job.pedestal,
         seed: job.seed,
     };
     let (frame, truth) = render_lvf(&spec)?;

@@ -139,6 +139,11 @@ pub struct LvfHgArgs {
     /// Spectrum of the continuum: flat, cfl (broad phosphor bands) or blackbody:K.
     #[arg(long, default_value = "flat")]
     pub continuum_spectrum: String,
+    /// A level added to every pixel after the fall-off and the noise, before clipping, as a
+    /// fraction of full scale in [0, 0.2) (the brightest pixel is 0.8 before it): a black-level
+    /// residue, or flare and stray light the lens does not vignette. Also in the flat field.
+    #[arg(long, default_value_t = 0.0)]
+    pub pedestal: f64,
     /// Also write a matching flat-field photo (16-bit TIFF): same geometry, camera, vignetting
     /// and noise, a broadband source of spectrum --flat-spectrum instead of the lamp.
     #[arg(long)]
@@ -207,6 +212,7 @@ fn lvf_hg(a: &LvfHgArgs) -> Result<()> {
         vignetting: a.vignetting.clone(),
         continuum: a.continuum,
         continuum_spectrum: a.continuum_spectrum.clone(),
+        pedestal: a.pedestal,
         flat: a.flat_out.is_some(),
         flat_spectrum: a.flat_spectrum.clone(),
         seed: a.seed,
