@@ -418,7 +418,11 @@ pub fn estimate_radial_falloff(profile: &crate::lvf::Profile) -> Option<RadialFa
     }
     let mut one = solve_strip_rows(&rows, n, false)?;
     let mut two = solve_strip_rows(&rows, n, true);
-    let pedestal = estimate_pedestal(&rows, &row_cy, n, two.map_or(one.0, |t| t.0));
+    // a pedestal only matters (and is only determined) under a fall-off the strips see
+    let seen = one.1[0] > 0.0 && one.0[0].abs() > RADIAL_APPLY.0 * one.1[0];
+    let pedestal = seen
+        .then(|| estimate_pedestal(&rows, &row_cy, n, two.map_or(one.0, |t| t.0)))
+        .flatten();
     if let Some(ped) = &pedestal {
         // the fall-off again with each ratio's dilution (ȳ − p)/ȳ in its regressors, and the
         // covariance of κ from the joint fit with the pedestal (its uncertainty included)
@@ -544,10 +548,22 @@ fn estimate_pedestal(
     if chi2.is_nan() || chi2 <= PEDESTAL_APPLY_CHI2 {
         return None;
     }
-    Some(Pedestal {
-        level: p,
-        sigma: std::array::from_fn(|c| cov[(m - 3 + c, m - 3 + c)].max(0.0).sqrt()),
-    })
+    let sigma: [f64; 3] = std::array::from_fn(|c| cov[(m - 3 + c, m - 3 + c)].max(0.0).sqrt());
+    // y = V·S + p with S ≥ 0: no channel's level lies beyond 3σ above its darkest used mean
+    // (else the alternation has run off along κ·(1 − p/ȳ) ≈ const: a 40-row ROI whose strips
+    // barely saw the fall-off gave a blue "pedestal" of 0.29 ± 0.05 over means from 0.04, and V
+    // 0.04 at the ends)
+    for c in 0..3 {
+        let darkest = row_cy
+            .iter()
+            .filter(|r| r.0 == c)
+            .map(|r| r.1)
+            .fold(f64::INFINITY, f64::min);
+        if darkest.is_finite() && p[c] - 3.0 * sigma[c] >= darkest {
+            return None;
+        }
+    }
+    Some(Pedestal { level: p, sigma })
 }
 
 /// The cluster-robust covariance (one cluster per profile position, as [`solve_strip_rows`]) of
