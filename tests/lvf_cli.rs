@@ -166,29 +166,26 @@ fn synth_pedestal_is_checked_and_lvf_calibrate_reports_it() {
         common::assert_rejected(&o, &["--pedestal", "[0, 0.2)"]);
         assert!(!dir.path().join("hg.tiff").exists() && !dir.path().join("truth.json").exists());
     }
-    let o = lumifit(&[
-        "synth",
-        "lvf-hg",
-        "--out",
-        &p("hg.tiff"),
-        "--truth",
-        &p("truth.json"),
-        "--lamp",
-        "cfl",
-        "--noise",
-        "0",
-        "--vignetting",
-        "0.3",
-        "--continuum",
-        "0.1",
-        "--continuum-spectrum",
-        "cfl",
-        "--pedestal",
-        "0.04",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let img = image::open(p("hg.tiff")).unwrap().to_rgb16();
-    let darkest = img.pixels().flat_map(|px| px.0).min().unwrap();
+    let (img, _) = common::synth_hg(
+        dir.path(),
+        &[
+            "--lamp",
+            "cfl",
+            "--noise",
+            "0",
+            "--vignetting",
+            "0.3",
+            "--continuum",
+            "0.1",
+            "--continuum-spectrum",
+            "cfl",
+            "--pedestal",
+            "0.04",
+        ],
+        1,
+    );
+    let pixels = image::open(&img).unwrap().to_rgb16();
+    let darkest = pixels.pixels().flat_map(|px| px.0).min().unwrap();
     let darkest = darkest as f64 / 65535.0;
     assert!(
         (0.04 - 1e-4..0.045).contains(&darkest),
@@ -197,7 +194,7 @@ fn synth_pedestal_is_checked_and_lvf_calibrate_reports_it() {
     let o = lumifit(&[
         "lvf",
         "calibrate",
-        &p("hg.tiff"),
+        &img,
         "--axis",
         "x",
         "--lamp",

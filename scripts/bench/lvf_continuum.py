@@ -63,6 +63,8 @@ def main():
                     help="pass the rendering camera to lvf calibrate (--camera): shared continuum spectrum")
     ap.add_argument("--knots", default=None, help="--continuum-knots of lvf calibrate, e.g. 2.5,1.5")
     ap.add_argument("--lumifit", default=LUMIFIT, help="the lumifit binary (default target/release/lumifit)")
+    ap.add_argument("--pedestal", type=float, default=0.0,
+                    help="synth lvf-hg --pedestal: a level over the fall-off (fraction of full scale)")
     ap.add_argument("--per-seed", action="store_true",
                     help="also print each seed's signed error, statistical and reported σ at 400 / 700 nm and model")
     a = ap.parse_args()
@@ -82,7 +84,8 @@ def main():
                     r = run(["synth", "lvf-hg", "--out", str(img), "--truth", str(truth), "--lamp", lamp,
                              "--nm-at-start", "372.3", "--nm-per-px", "0.3117", "--fwhm", "25",
                              "--camera", f"{DB}:{cam}", "--noise", str(noise), "--vignetting", vig,
-                             "--continuum", str(cont), "--continuum-spectrum", cspec, "--seed", str(seed)])
+                             "--continuum", str(cont), "--continuum-spectrum", cspec, "--seed", str(seed),
+                             *(["--pedestal", str(a.pedestal)] if a.pedestal else [])])
                     assert r.returncode == 0, r.stderr
                     t = json.loads(truth.read_text())
                     r = run(["lvf", "calibrate", str(img), "--axis", "x", "--lamp", lamp,

@@ -510,6 +510,11 @@ fn estimate_pedestal(
 ) -> Option<Pedestal> {
     let mut p = [0.0f64; 3];
     let mut kappa = kappa_start;
+    let scale = row_cy
+        .iter()
+        .map(|r| r.1.abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
     for _ in 0..PEDESTAL_ITERATIONS {
         let mut num = [0.0f64; 3];
         let mut den = [0.0f64; 3];
@@ -520,11 +525,6 @@ fn estimate_pedestal(
         }
         let next: [f64; 3] =
             std::array::from_fn(|c| if den[c] > 0.0 { num[c] / den[c] } else { 0.0 });
-        let scale = row_cy
-            .iter()
-            .map(|r| r.1.abs())
-            .fold(0.0, f64::max)
-            .max(1e-300);
         let moved = (0..3).map(|c| (next[c] - p[c]).abs()).fold(0.0, f64::max);
         p = next;
         let scaled = scaled_rows(rows, row_cy, &p);
